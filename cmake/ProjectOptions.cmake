@@ -1,0 +1,11 @@
+# One place for the language level and warnings every target uses.
+include_guard(GLOBAL)
+
+function(terrain_set_project_options target)
+  target_compile_features(${target} PUBLIC cxx_std_20)
+  set_target_properties(${target} PROPERTIES CXX_EXTENSIONS OFF)
+  target_compile_options(${target} PRIVATE
+    -Wall -Wextra -Wconversion -Wshadow -Wpedantic -Werror
+    # Same numbers on every compiler: no fused multiply-add contraction.
+    -ffp-contract=off)
+endfunction()

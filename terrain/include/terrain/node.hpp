@@ -1,0 +1,101 @@
+// Node types (primitives and operators) and the registry that describes them. One registry entry
+// drives parsing, canonical serialisation, compilation, the CPU kernels, documentation examples,
+// tests and benchmarks: a node type is added in one place.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "terrain/field.hpp"
+#include "terrain/result.hpp"
+
+namespace terrain {
+
+/// How a node combines with its children; the interpreter has one code path per category.
+enum class NodeCategory : std::uint8_t {
+  primitive,  ///< a leaf: f and α from its own parameters
+  blend,      ///< n-ary blend (Génevaux §5.1), accumulated child by child
+  binary,     ///< combines A and B (replace, add, LoD)
+  warp,       ///< unary: evaluates its child in warped coordinates
+};
+
+/// Per-point Jacobian of a warp q(p), kept while its child runs: ∂q/∂p, row-major.
+struct WarpJacobian {
+  alignas(64) float xx[kBlockSize];
+  alignas(64) float xy[kBlockSize];
+  alignas(64) float yx[kBlockSize];
+  alignas(64) float yy[kBlockSize];
+};
+
+/// CPU kernels of a node type. Each reads its parameters from the program's float pool. Only the
+/// members of the node's category are set.
+struct NodeKernels {
+  // primitive
+  void (*leaf)(const float* params, const PointBlock& points, FieldBlock& out) = nullptr;
+  NodeBounds (*leaf_bounds)(const float* params, const BoundsQuery& query) = nullptr;
+  // binary: `out` may alias `a`
+  void (*combine)(const float* params, const PointBlock& points, const FieldBlock& a,
+                  const FieldBlock& b, FieldBlock& out) = nullptr;
+  NodeBounds (*combine_bounds)(const float* params, const BoundsQuery& query, const NodeBounds& a,
+                               const NodeBounds& b) = nullptr;
+  // warp: map points into the child's frame, then map the child's field back
+  void (*warp_points)(const float* params, const PointBlock& in, PointBlock& out,
+                      WarpJacobian& jacobian) = nullptr;
+  void (*warp_field)(const float* params, int count, const WarpJacobian& jacobian,
+                     FieldBlock& field) = nullptr;
+  Box2 (*warp_box)(const float* params, const Box2& box) = nullptr;  ///< parent box → child box
+  NodeBounds (*warp_bounds)(const float* params, const NodeBounds& child) = nullptr;
+  /// parent sample spacing → child sample spacing (nullptr: unchanged)
+  float (*warp_spacing)(const float* params, float spacing) = nullptr;
+};
+
+struct ParseContext;
+
+/// The parameters of one parsed node: packed floats for the evaluators, and the canonical JSON
+/// of its own fields (defaults made explicit), which serialisation writes back.
+struct NodeParams {
+  std::vector<float> pool;
+  nlohmann::json canonical = nlohmann::json::object();
+};
+
+/// Reads node-specific fields. `reader` has already consumed "type", "id" and "children".
+class FieldReader;
+using NodeParser = Result<NodeParams> (*)(FieldReader& reader, ParseContext& context);
+
+/// Static description of a node type.
+struct NodeType {
+  std::uint16_t id = 0;            ///< stable opcode shared by every evaluator (never reused)
+  std::string_view name;           ///< the JSON "type"
+  NodeCategory category = NodeCategory::primitive;
+  std::uint16_t min_children = 0;
+  std::uint16_t max_children = 0;  ///< 0xffff = unbounded
+  std::string_view summary;        ///< one line for docs and --help
+  NodeParser parse = nullptr;
+  NodeKernels kernels;
+  /// A small complete example of this node (children included) for docs, tests and benchmarks.
+  std::string_view example_json;
+};
+
+/// Every node type, in opcode order.
+std::span<const NodeType* const> node_types();
+/// The node type with this JSON name, or nullptr.
+const NodeType* find_node_type(std::string_view name);
+
+/// A node of a parsed scene tree. Subtrees may be shared (instancing): the tree is a DAG.
+struct Node {
+  const NodeType* type = nullptr;
+  std::string id;                 ///< optional user label
+  std::string pointer;            ///< where it was defined in the scene JSON
+  NodeParams params;
+  std::vector<std::shared_ptr<const Node>> children;
+};
+using NodePtr = std::shared_ptr<const Node>;
+
+}  // namespace terrain

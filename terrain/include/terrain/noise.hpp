@@ -1,0 +1,110 @@
+// Deterministic noise: integer-hashed gradient and simplex noise in 2D and 3D with analytic
+// derivatives, and the fractal sums built from them (fBm, ridged, hybrid multifractal, Schneider's
+// rescale-and-add with per-octave domain warping). Every function returns the same bits on every
+// platform and compiler (IEEE float, no FMA contraction, no libm calls in the hot path), which the
+// golden-value tests pin. See docs/noise.md for the hash and the exact formulas.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "terrain/math.hpp"
+
+namespace terrain::noise {
+
+/// Integer hash of one 32-bit word ("lowbias32": xorshift-multiply, full avalanche).
+constexpr std::uint32_t hash(std::uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352dU;
+  x ^= x >> 15;
+  x *= 0x846ca68bU;
+  x ^= x >> 16;
+  return x;
+}
+/// Hash of a structured key: each word is folded in turn, so (a, b) and (b, a) differ.
+constexpr std::uint32_t hash(std::uint32_t a, std::uint32_t b) { return hash(a ^ hash(b + 0x9e3779b9U)); }
+constexpr std::uint32_t hash(std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+  return hash(hash(a, b), c);
+}
+constexpr std::uint32_t hash(std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) {
+  return hash(hash(a, b, c), d);
+}
+
+/// Value and gradient of a 2D scalar field.
+struct Sample2 {
+  float value = 0.0f;
+  float dx = 0.0f;
+  float dy = 0.0f;
+};
+/// Value and gradient of a 3D scalar field.
+struct Sample3 {
+  float value = 0.0f;
+  float dx = 0.0f;
+  float dy = 0.0f;
+  float dz = 0.0f;
+};
+
+enum class Basis : std::uint32_t { gradient = 0, simplex = 1 };
+
+// Single-octave noise with unit frequency. Values lie in [-1, 1]; the Lipschitz bounds below are
+// proven bounds of |gradient| (checked by tests on dense samples).
+Sample2 gradient2(float x, float y, std::uint32_t seed);
+Sample2 simplex2(float x, float y, std::uint32_t seed);
+Sample3 gradient3(float x, float y, float z, std::uint32_t seed);
+Sample3 simplex3(float x, float y, float z, std::uint32_t seed);
+
+/// Proven bound of |∇| for the single-octave basis functions at unit frequency.
+float lipschitz(Basis basis, int dimensions);
+
+enum class Fractal : std::uint32_t {
+  fbm = 0,        ///< Σ a_i η(s_i p)
+  ridged = 1,     ///< Musgrave's ridged multifractal, weighted by the previous octave
+  hybrid = 2,     ///< Musgrave's hybrid multifractal
+  warped = 3,     ///< Schneider's rescale-and-add with height-dependent domain warping
+};
+
+/// Parameters of a fractal sum. Octave i has frequency `frequency · lacunarity^i` and amplitude
+/// `amplitude · lacunarity^(-i·hurst)` (Schneider eq. 1; gain = lacunarity^-H).
+struct FractalParams {
+  Fractal kind = Fractal::fbm;
+  Basis basis = Basis::gradient;
+  std::uint32_t seed = 0;
+  int octaves = 8;           ///< maximum octave count (1..24)
+  float frequency = 1.0f;    ///< of octave 0, cycles per metre
+  float amplitude = 1.0f;    ///< of octave 0, metres
+  float lacunarity = 2.0f;   ///< r > 1
+  float hurst = 1.0f;        ///< H > 0
+  float ridge_offset = 1.0f; ///< ridged/hybrid offset
+  float ridge_gain = 2.0f;   ///< ridged weighting gain
+  // Domain warping (kind == warped): per-octave rotation angle and translation driven by the
+  // height accumulated so far (see docs/noise.md for why angles replace the paper's vector update).
+  float warp_c1 = 0.0f;      ///< rotation per unit roughness (radians)
+  float warp_c2 = 0.0f;      ///< constant rotation per octave (radians)
+  Vec2 warp_c3{0.0f, 0.0f};  ///< translation per metre of accumulated height (in octave-0 units)
+};
+
+/// Schneider's LoD octave count: how many octaves are visible at sample spacing `spacing` metres
+/// (Nyquist: the finest octave's wavelength is at least two samples). Fractional; clamped to
+/// [0, octaves]. spacing <= 0 means full detail.
+float visible_octaves(const FractalParams& p, float spacing);
+
+/// Weight of octave i when `octaves` (fractional) are visible: 1 for i < floor, a C1 ramp for the
+/// partial octave, 0 beyond. Continuous in `octaves`, so LoD changes never jump.
+float octave_weight(int i, float octaves);
+
+/// Evaluates the fractal at n points (x[k], y[k]) (metres, relative to the feature's origin) with
+/// `octaves` visible octaves, writing value and gradient. Vectorised; n may be any size.
+void fractal2(const FractalParams& p, const float* x, const float* y, std::size_t n, float octaves,
+              float* value, float* dx, float* dy);
+Sample2 fractal2(const FractalParams& p, Vec2 point, float octaves);
+
+/// The same over 3D positions (for planets): value and gradient.
+void fractal3(const FractalParams& p, const float* x, const float* y, const float* z, std::size_t n,
+              float octaves, float* value, float* dx, float* dy, float* dz);
+
+/// Bounds of the fractal's value over all points, and a proven Lipschitz bound of its value over a
+/// region whose points lie within `radius` metres of the origin (only `warped` depends on it).
+Interval fractal_range(const FractalParams& p, float octaves);
+float fractal_lipschitz(const FractalParams& p, float octaves, float radius);
+
+}  // namespace terrain::noise

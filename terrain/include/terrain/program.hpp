@@ -1,0 +1,62 @@
+// The compiled form of a scene: a flat instruction stream plus a float parameter pool, walked
+// without recursion by the CPU interpreter (the reference), the GPU compute shader and the
+// browser's fragment shader. Layout: docs/program.md.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "terrain/field.hpp"
+#include "terrain/result.hpp"
+#include "terrain/scene.hpp"
+
+namespace terrain {
+
+enum class Op : std::uint16_t {
+  leaf = 0,         ///< push the primitive's field
+  blend_begin = 1,  ///< push an empty blend accumulator
+  blend_add = 2,    ///< pop a field, add it to the accumulator on top
+  blend_end = 3,    ///< turn the accumulator into the blend's field
+  cull = 4,         ///< box at params: if the block misses it, push a zero-weight field, jump
+  group = 5,        ///< box at params: if the block misses it, jump (a blend's BVH node)
+  combine = 6,      ///< pop B, pop A, push the binary operator's field
+  warp_begin = 7,   ///< push the child's coordinate frame
+  warp_end = 8,     ///< pop the frame, map the field on top back to the parent frame
+};
+
+/// One instruction: 16 bytes, read as a uvec4 by the shaders.
+struct Instruction {
+  Op op = Op::leaf;
+  std::uint16_t type = 0;    ///< node type id (NodeType::id) for leaf/combine/warp/blend
+  std::uint32_t params = 0;  ///< offset of the node's parameters (or the cull/group box) in pool
+  std::uint32_t skip = 0;    ///< cull/group: instructions to jump over when the box is missed
+  std::uint32_t node = 0;    ///< index of the source node (diagnostics)
+};
+static_assert(sizeof(Instruction) == 16);
+
+struct Program {
+  std::vector<Instruction> code;
+  std::vector<float> pool;
+  NodeBounds bounds;          ///< global bounds of the root
+  float base_elevation = 0.0f;
+  int max_field_depth = 0;    ///< field-stack slots the interpreter needs
+  int max_frame_depth = 0;    ///< nested warps
+  std::string scene_hash;
+
+  /// A JSON description (the browser and tests read it; binary buffers are base64).
+  nlohmann::json to_json() const;
+};
+
+struct CompileOptions {
+  int blend_leaf_size = 4;  ///< children per BVH leaf in large blends
+  bool concatenate_affine = true;
+  bool cull = true;         ///< emit cull/group boxes (false: plain traversal)
+};
+
+/// Flattens a scene's tree into a program. Fails only on limits (depth, size).
+Result<Program> compile(const Scene& scene, const CompileOptions& options = {});
+
+}  // namespace terrain

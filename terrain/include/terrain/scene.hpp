@@ -1,0 +1,88 @@
+// Scene JSON (docs/scene-format.md): parsing with validation that names the offending JSON
+// pointer, canonical serialisation, and the content hash that identifies a scene version.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "terrain/node.hpp"
+#include "terrain/result.hpp"
+
+namespace terrain {
+
+inline constexpr std::string_view kSceneFormat = "terrain-scene/1";
+
+/// Pixels of a heightfield image referenced by a scene (row 0 is the image's top).
+struct ImageData {
+  int width = 0;
+  int height = 0;
+  std::vector<float> samples;
+  std::vector<float> weights;  ///< empty, or one weight per sample (the image's alpha)
+};
+
+/// Resolves an image reference from a scene (a file path, or a content hash in the server's store).
+using ImageResolver = std::function<Result<ImageData>(std::string_view reference)>;
+
+/// Limits applied while parsing untrusted scenes.
+struct SceneLimits {
+  int max_depth = 64;             ///< nesting of nodes, definitions expanded
+  int max_nodes = 20000;          ///< nodes after instancing is expanded
+  std::int64_t max_image_pixels = 16 * 1024 * 1024;
+  std::size_t max_pool_floats = 64 * 1024 * 1024;
+};
+
+struct ParseOptions {
+  SceneLimits limits;
+  ImageResolver images;  ///< required only by scenes with image primitives
+};
+
+/// Optional geographic anchor of the scene's origin (used by geographic tilings).
+struct Georeference {
+  double latitude = 0.0;
+  double longitude = 0.0;
+  double heading = 0.0;  ///< degrees clockwise from north of the scene's +y axis
+};
+
+/// A parsed, validated scene.
+struct Scene {
+  std::string name;
+  std::uint32_t seed = 0;
+  float base_elevation = 0.0f;  ///< elevation where no primitive has weight
+  std::optional<Box2> extent;   ///< the declared square of interest (tiles cover it)
+  Georeference georeference;
+  NodePtr root;
+  std::map<std::string, NodePtr, std::less<>> definitions;
+  NodeBounds bounds;         ///< global bounds of the root at full detail
+  nlohmann::json canonical;  ///< canonical JSON (defaults explicit), what serialise() writes
+  std::string hash;          ///< "sha256:<hex>" of canonical_text()
+
+  /// The canonical text: keys sorted, no whitespace, shortest round-trip numbers.
+  std::string canonical_text() const { return canonical.dump(); }
+  /// The extent, or the root's support when none is declared.
+  Box2 area() const;
+};
+
+/// Parses and validates a scene. Errors name the JSON pointer of the offending field.
+Result<Scene> parse_scene(const nlohmann::json& document, const ParseOptions& options = {});
+/// The same from text (JSON syntax errors are reported with their byte offset).
+Result<Scene> parse_scene_text(std::string_view text, const ParseOptions& options = {});
+
+/// Hex SHA-256 of a byte string.
+std::string sha256_hex(std::string_view bytes);
+
+/// State shared by node parsers while a scene is parsed.
+struct ParseContext {
+  std::uint32_t scene_seed = 0;
+  float base_elevation = 0.0f;
+  const ParseOptions* options = nullptr;
+  /// Derives a node's noise seed from the scene seed and the node's own "seed" field.
+  std::uint32_t noise_seed(std::int64_t node_seed) const;
+};
+
+}  // namespace terrain

@@ -1,0 +1,87 @@
+// CPU sphere tracing of the terrain h(p) = p_z − f(p_xy) (Génevaux §7.1–7.2): the plain algorithm
+// with the global Lipschitz bound, and the accelerated one with local bounds over a candidate
+// segment whose length doubles after every step. Both report whether and where the ray hit and
+// how many steps it took; reference pictures and tests use them.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "terrain/evaluate.hpp"
+
+namespace terrain {
+
+struct Vec3 {
+  float x = 0, y = 0, z = 0;
+};
+
+struct Ray {
+  Vec3 origin;
+  Vec3 direction;  ///< unit length
+};
+
+struct TraceOptions {
+  bool accelerated = true;
+  float epsilon = 0.01f;        ///< metres above the surface that count as a hit
+  int max_steps = 2048;
+  float initial_step = 10.0f;   ///< δ of the accelerated algorithm, metres
+  float lod_per_metre = 0.0f;   ///< sample spacing grows by this much per metre of distance
+  float t_max = 1e7f;
+};
+
+struct TraceResult {
+  bool hit = false;
+  float t = 0.0f;
+  Vec3 position;
+  int steps = 0;
+};
+
+/// The region traced: the ray's parameter interval inside `area` × [lowest, highest elevation].
+struct TraceDomain {
+  Box2 area;
+  Interval elevation;
+};
+TraceDomain trace_domain(const Program& program, const Box2& area);
+
+TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray,
+                         const TraceOptions& options = {});
+
+/// Reference: marches with a fixed step and reports the first sign change of h (bisected).
+TraceResult march_dense(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray,
+                        float step, float t_max);
+
+/// A pinhole camera looking from `position` towards `target`, z up.
+struct Camera {
+  Vec3 position;
+  Vec3 target;
+  float vertical_fov_degrees = 50.0f;
+  int width = 640;
+  int height = 400;
+  Ray ray(float px, float py) const;  ///< through pixel centre (px, py), py = 0 at the top
+};
+
+/// A shaded picture: sky, fog, height/slope materials, sun light from exact gradients.
+struct Picture {
+  int width = 0;
+  int height = 0;
+  std::vector<std::uint8_t> rgb;
+  std::vector<float> depth;  ///< ray distance, or -1 where the ray missed
+  std::int64_t total_steps = 0;
+};
+
+struct RenderOptions {
+  TraceOptions trace;
+  float water_level = -1e9f;  ///< draw water below this elevation
+  int threads = 0;
+  /// Called with the fraction done (0..1) from the calling thread; may be empty.
+  std::function<void(float)> progress;
+};
+
+Picture render(const Program& program, const Box2& area, const Camera& camera,
+               const RenderOptions& options = {});
+
+/// A camera that frames `area` from the south-west at a pleasant height.
+Camera default_camera(const Program& program, const Box2& area, int width, int height);
+
+}  // namespace terrain

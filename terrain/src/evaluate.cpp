@@ -1,0 +1,314 @@
+#include "terrain/evaluate.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <thread>
+
+#include "nodes/blend.hpp"
+
+namespace terrain {
+namespace {
+
+const NodeType* type_by_id(std::uint16_t id) {
+  static const std::array<const NodeType*, 256> table = [] {
+    std::array<const NodeType*, 256> t{};
+    for (const NodeType* type : node_types()) t[type->id] = type;
+    return t;
+  }();
+  return table[id & 0xff];
+}
+
+Box2 box_at(const float* pool) { return {{pool[0], pool[1]}, {pool[2], pool[3]}}; }
+
+NodeBounds no_weight_bounds() { return NodeBounds{}; }
+
+}  // namespace
+
+struct Evaluator::Scratch {
+  std::vector<FieldBlock> fields;
+  std::vector<PointBlock> frames;
+  std::vector<WarpJacobian> jacobians;
+  std::vector<const NodeType*> types;  // per instruction
+  std::vector<NodeBounds> bounds;
+  std::vector<BlendBoundsAccumulator> blends;
+  std::vector<BoundsQuery> queries;
+};
+
+Evaluator::Evaluator(const Program& program)
+    : program_(program), scratch_(std::make_unique<Scratch>()) {
+  scratch_->fields.resize(static_cast<std::size_t>(program.max_field_depth) + 1);
+  scratch_->frames.resize(static_cast<std::size_t>(program.max_frame_depth) + 1);
+  scratch_->jacobians.resize(static_cast<std::size_t>(program.max_frame_depth) + 1);
+  scratch_->types.reserve(program.code.size());
+  for (const Instruction& ins : program.code) scratch_->types.push_back(type_by_id(ins.type));
+}
+
+Evaluator::~Evaluator() = default;
+
+void Evaluator::evaluate(const PointBlock& block, FieldBlock& out) {
+  Scratch& s = *scratch_;
+  const Instruction* code = program_.code.data();
+  const float* pool = program_.pool.data();
+  const std::size_t size = program_.code.size();
+  const int n = block.count;
+  FieldBlock* fields = s.fields.data();
+  int sp = 0;
+  int fp = 0;
+  const PointBlock* frame = &block;
+  for (std::size_t pc = 0; pc < size; ++pc) {
+    const Instruction& ins = code[pc];
+    const float* params = pool + ins.params;
+    switch (ins.op) {
+      case Op::leaf:
+        s.types[pc]->kernels.leaf(params, *frame, fields[sp++]);
+        break;
+      case Op::blend_begin:
+        blend_clear(fields[sp++], n);
+        break;
+      case Op::blend_add:
+        --sp;
+        blend_accumulate(fields[sp - 1], fields[sp], n);
+        break;
+      case Op::blend_end:
+        blend_finish(params, fields[sp - 1], n);
+        break;
+      case Op::cull:
+        if (!frame->box.intersects(box_at(params))) {
+          fields[sp++].clear(n);
+          pc += ins.skip;
+        }
+        break;
+      case Op::group:
+        if (!frame->box.intersects(box_at(params))) pc += ins.skip;
+        break;
+      case Op::combine:
+        --sp;
+        s.types[pc]->kernels.combine(params, *frame, fields[sp - 1], fields[sp], fields[sp - 1]);
+        break;
+      case Op::warp_begin:
+        ++fp;
+        s.types[pc]->kernels.warp_points(params, *frame, s.frames[static_cast<std::size_t>(fp)],
+                                         s.jacobians[static_cast<std::size_t>(fp)]);
+        frame = &s.frames[static_cast<std::size_t>(fp)];
+        break;
+      case Op::warp_end:
+        s.types[pc]->kernels.warp_field(params, n, s.jacobians[static_cast<std::size_t>(fp)],
+                                        fields[sp - 1]);
+        --fp;
+        frame = fp == 0 ? &block : &s.frames[static_cast<std::size_t>(fp)];
+        break;
+    }
+  }
+  const FieldBlock& result = fields[0];
+  std::copy_n(result.f, n, out.f);
+  std::copy_n(result.a, n, out.a);
+  std::copy_n(result.fx, n, out.fx);
+  std::copy_n(result.fy, n, out.fy);
+  std::copy_n(result.ax, n, out.ax);
+  std::copy_n(result.ay, n, out.ay);
+}
+
+FieldSample Evaluator::sample(Vec2 p, float spacing) {
+  PointBlock block;
+  block.count = 1;
+  block.spacing = spacing;
+  block.x[0] = p.x;
+  block.y[0] = p.y;
+  block.box = Box2::of_point(p);
+  FieldBlock out;
+  evaluate(block, out);
+  return out.at(0);
+}
+
+NodeBounds Evaluator::bounds(const BoundsQuery& query) {
+  Scratch& s = *scratch_;
+  const Instruction* code = program_.code.data();
+  const float* pool = program_.pool.data();
+  const std::size_t size = program_.code.size();
+  s.bounds.clear();
+  s.blends.clear();
+  s.queries.clear();
+  BoundsQuery q = query;
+  for (std::size_t pc = 0; pc < size; ++pc) {
+    const Instruction& ins = code[pc];
+    const float* params = pool + ins.params;
+    const NodeKernels& k = s.types[pc]->kernels;
+    switch (ins.op) {
+      case Op::leaf:
+        s.bounds.push_back(k.leaf_bounds(params, q));
+        break;
+      case Op::blend_begin:
+        s.blends.emplace_back();
+        break;
+      case Op::blend_add:
+        s.blends.back().add(s.bounds.back());
+        s.bounds.pop_back();
+        break;
+      case Op::blend_end:
+        s.bounds.push_back(s.blends.back().finish(params));
+        s.blends.pop_back();
+        break;
+      case Op::cull:
+        if (!q.box.intersects(box_at(params))) {
+          s.bounds.push_back(no_weight_bounds());
+          pc += ins.skip;
+        }
+        break;
+      case Op::group:
+        if (!q.box.intersects(box_at(params))) pc += ins.skip;
+        break;
+      case Op::combine: {
+        const NodeBounds b = s.bounds.back();
+        s.bounds.pop_back();
+        s.bounds.back() = k.combine_bounds(params, q, s.bounds.back(), b);
+        break;
+      }
+      case Op::warp_begin:
+        s.queries.push_back(q);
+        q.box = k.warp_box(params, q.box);
+        if (k.warp_spacing != nullptr) q.spacing = k.warp_spacing(params, q.spacing);
+        break;
+      case Op::warp_end:
+        q = s.queries.back();
+        s.queries.pop_back();
+        s.bounds.back() = k.warp_bounds(params, s.bounds.back());
+        break;
+    }
+  }
+  return s.bounds.back();
+}
+
+GridResult evaluate_grid(const Program& program, const GridSpec& grid, int threads) {
+  GridResult result;
+  result.width = grid.width;
+  result.height = grid.height;
+  const auto total = static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height);
+  result.elevation.resize(total);
+  result.gradient_x.resize(total);
+  result.gradient_y.resize(total);
+  constexpr int kSide = 8;  // 8×8 = kBlockSize points per block
+  const int blocks_x = (grid.width + kSide - 1) / kSide;
+  const int blocks_y = (grid.height + kSide - 1) / kSide;
+  const int block_count = blocks_x * blocks_y;
+  const float spacing =
+      grid.lod_spacing < 0.0f ? static_cast<float>(grid.step) : grid.lod_spacing;
+  std::atomic<int> next{0};
+
+  auto worker = [&] {
+    Evaluator evaluator(program);
+    PointBlock block;
+    FieldBlock out;
+    for (int b = next.fetch_add(1); b < block_count; b = next.fetch_add(1)) {
+      const int bx = (b % blocks_x) * kSide;
+      const int by = (b / blocks_x) * kSide;
+      block.count = 0;
+      block.spacing = spacing;
+      for (int j = by; j < std::min(by + kSide, grid.height); ++j) {
+        for (int i = bx; i < std::min(bx + kSide, grid.width); ++i) {
+          // Positions in double, then rounded once, so every tile agrees on shared samples.
+          block.x[block.count] = static_cast<float>(grid.origin_x + grid.step * i);
+          block.y[block.count] = static_cast<float>(grid.origin_y + grid.step * j);
+          ++block.count;
+        }
+      }
+      block.recompute_box();
+      evaluator.evaluate(block, out);
+      int k = 0;
+      for (int j = by; j < std::min(by + kSide, grid.height); ++j) {
+        for (int i = bx; i < std::min(bx + kSide, grid.width); ++i, ++k) {
+          const std::size_t at = static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.width) +
+                                 static_cast<std::size_t>(i);
+          result.elevation[at] = out.f[k];
+          result.gradient_x[at] = out.fx[k];
+          result.gradient_y[at] = out.fy[k];
+        }
+      }
+    }
+  };
+
+  const int count = threads > 0 ? threads
+                                : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int used = std::min(count, block_count);
+  std::vector<std::thread> pool;
+  for (int t = 1; t < used; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+  return result;
+}
+
+namespace {
+
+void evaluate_node(const Node& node, const PointBlock& points, FieldBlock& out) {
+  const float* params = node.params.pool.data();
+  const NodeKernels& k = node.type->kernels;
+  switch (node.type->category) {
+    case NodeCategory::primitive:
+      k.leaf(params, points, out);
+      return;
+    case NodeCategory::blend: {
+      blend_clear(out, points.count);
+      auto child = std::make_unique<FieldBlock>();
+      for (const NodePtr& c : node.children) {
+        evaluate_node(*c, points, *child);
+        blend_accumulate(out, *child, points.count);
+      }
+      blend_finish(params, out, points.count);
+      return;
+    }
+    case NodeCategory::binary: {
+      auto b = std::make_unique<FieldBlock>();
+      evaluate_node(*node.children[0], points, out);
+      evaluate_node(*node.children[1], points, *b);
+      k.combine(params, points, out, *b, out);
+      return;
+    }
+    case NodeCategory::warp: {
+      auto warped = std::make_unique<PointBlock>();
+      auto jacobian = std::make_unique<WarpJacobian>();
+      k.warp_points(params, points, *warped, *jacobian);
+      evaluate_node(*node.children[0], *warped, out);
+      k.warp_field(params, points.count, *jacobian, out);
+      return;
+    }
+  }
+}
+
+}  // namespace
+
+NodeBounds tree_bounds(const Node& node, const BoundsQuery& query) {
+  const float* params = node.params.pool.data();
+  const NodeKernels& k = node.type->kernels;
+  switch (node.type->category) {
+    case NodeCategory::primitive:
+      return k.leaf_bounds(params, query);
+    case NodeCategory::blend: {
+      BlendBoundsAccumulator acc;
+      for (const NodePtr& c : node.children) acc.add(tree_bounds(*c, query));
+      return acc.finish(params);
+    }
+    case NodeCategory::binary:
+      return k.combine_bounds(params, query, tree_bounds(*node.children[0], query),
+                              tree_bounds(*node.children[1], query));
+    case NodeCategory::warp: {
+      BoundsQuery inner{k.warp_box(params, query.box), query.spacing};
+      if (k.warp_spacing != nullptr) inner.spacing = k.warp_spacing(params, query.spacing);
+      return k.warp_bounds(params, tree_bounds(*node.children[0], inner));
+    }
+  }
+  return {};
+}
+
+FieldSample evaluate_tree(const Scene& scene, Vec2 p, float spacing) {
+  PointBlock block;
+  block.count = 1;
+  block.spacing = spacing;
+  block.x[0] = p.x;
+  block.y[0] = p.y;
+  block.box = Box2::of_point(p);
+  FieldBlock out;
+  evaluate_node(*scene.root, block, out);
+  return out.at(0);
+}
+
+}  // namespace terrain

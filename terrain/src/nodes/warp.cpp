@@ -1,0 +1,117 @@
+#include "nodes/warp.hpp"
+
+#include <cmath>
+
+#include "field_reader.hpp"
+#include "nodes/fractal_params.hpp"
+
+namespace terrain {
+namespace {
+
+// Pool: fractal for the x displacement; the y displacement uses the same with seed + 1.
+noise::FractalParams component(const float* params, std::uint32_t axis) {
+  noise::FractalParams p = unpack_fractal(params);
+  p.seed = noise::hash(p.seed, axis);
+  return p;
+}
+
+float displacement_bound(const noise::FractalParams& p, float octaves) {
+  const Interval r = noise::fractal_range(p, octaves);
+  return std::max(std::abs(r.lo), std::abs(r.hi));
+}
+
+Result<NodeParams> parse_warp(FieldReader& reader, ParseContext& context) {
+  NodeParams out;
+  FieldReader noise_reader = reader.nested("noise");
+  noise::FractalParams fractal = read_fractal(noise_reader, context, "fbm");
+  reader.adopt("noise", noise_reader);
+  if (!reader.ok()) return reader.error();
+  if (fractal.kind == noise::Fractal::warped) {
+    reader.fail("a displacement cannot itself be a warped fractal", "noise");
+    return reader.error();
+  }
+  const float lipschitz = noise::fractal_lipschitz(fractal, static_cast<float>(fractal.octaves), 0);
+  if (lipschitz * std::sqrt(2.0f) >= 1.0f) {
+    reader.fail("amplitude is too large for the wavelength: the displacement's slope bound " +
+                    std::to_string(lipschitz) +
+                    " must stay below 0.707 so the warp is invertible (lower the amplitude or "
+                    "raise the wavelength)",
+                "noise");
+    return reader.error();
+  }
+  pack_fractal(fractal, out.pool);
+  out.canonical = reader.canonical();
+  return out;
+}
+
+void warp_points(const float* params, const PointBlock& in, PointBlock& out, WarpJacobian& j) {
+  const noise::FractalParams px = component(params, 1);
+  const noise::FractalParams py = component(params, 2);
+  const float octaves = noise::visible_octaves(px, in.spacing);
+  const auto n = static_cast<std::size_t>(in.count);
+  alignas(64) float dx[kBlockSize];
+  alignas(64) float dy[kBlockSize];
+  noise::fractal2(px, in.x, in.y, n, octaves, dx, j.xx, j.xy);
+  noise::fractal2(py, in.x, in.y, n, octaves, dy, j.yx, j.yy);
+  out.count = in.count;
+  out.spacing = in.spacing;
+  for (int i = 0; i < in.count; ++i) {
+    out.x[i] = in.x[i] + dx[i];
+    out.y[i] = in.y[i] + dy[i];
+    j.xx[i] += 1.0f;
+    j.yy[i] += 1.0f;
+  }
+  out.recompute_box();
+}
+
+void warp_field(const float*, int count, const WarpJacobian& j, FieldBlock& field) {
+  for (int i = 0; i < count; ++i) {
+    const float fx = field.fx[i], fy = field.fy[i], ax = field.ax[i], ay = field.ay[i];
+    field.fx[i] = j.xx[i] * fx + j.yx[i] * fy;
+    field.fy[i] = j.xy[i] * fx + j.yy[i] * fy;
+    field.ax[i] = j.xx[i] * ax + j.yx[i] * ay;
+    field.ay[i] = j.xy[i] * ax + j.yy[i] * ay;
+  }
+}
+
+Box2 warp_box(const float* params, const Box2& box) {
+  const noise::FractalParams p = component(params, 1);
+  return box.expanded(displacement_bound(p, static_cast<float>(p.octaves)));
+}
+
+NodeBounds warp_bounds(const float* params, const NodeBounds& child) {
+  const noise::FractalParams p = component(params, 1);
+  const float octaves = static_cast<float>(p.octaves);
+  NodeBounds out = child;
+  out.support = child.support.empty()
+                    ? child.support
+                    : child.support.expanded(displacement_bound(p, octaves));
+  const float stretch = 1.0f + std::sqrt(2.0f) * noise::fractal_lipschitz(p, octaves, 0.0f);
+  out.elevation_lipschitz = child.elevation_lipschitz * stretch;
+  out.weight_lipschitz = child.weight_lipschitz * stretch;
+  return out;
+}
+
+}  // namespace
+
+const NodeType& warp_node_type() {
+  static const NodeType type{
+      .id = 33,
+      .name = "warp",
+      .category = NodeCategory::warp,
+      .min_children = 1,
+      .max_children = 1,
+      .summary = "bends its child with a smooth noise displacement (amplitude in metres)",
+      .parse = parse_warp,
+      .kernels = {.warp_points = warp_points,
+                  .warp_field = warp_field,
+                  .warp_box = warp_box,
+                  .warp_bounds = warp_bounds},
+      .example_json = R"({"type": "warp", "noise": {"kind": "fbm", "amplitude": 120,
+ "wavelength": 2000, "octaves": 3, "seed": 4}, "children": [
+ {"type": "disc", "center": [0, 0], "radius": 1200, "elevation": 250}]})",
+  };
+  return type;
+}
+
+}  // namespace terrain

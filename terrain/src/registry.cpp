@@ -1,0 +1,33 @@
+// The one list of node types. Adding a node type: write its header + source pair under nodes/
+// and add it here; parsing, serialisation, compilation, the evaluators, the docs examples, the
+// property tests and the benchmarks all iterate this list.
+#include <algorithm>
+#include <array>
+
+#include "nodes/add.hpp"
+#include "nodes/blend.hpp"
+#include "nodes/disc.hpp"
+#include "nodes/lod.hpp"
+#include "nodes/replace.hpp"
+#include "nodes/transform.hpp"
+#include "nodes/warp.hpp"
+#include "terrain/node.hpp"
+
+namespace terrain {
+
+std::span<const NodeType* const> node_types() {
+  static const std::array<const NodeType*, 7> kTypes{
+      &disc_node_type(),  &blend_node_type(),     &replace_node_type(), &add_node_type(),
+      &lod_node_type(),   &transform_node_type(), &warp_node_type(),
+  };
+  return kTypes;
+}
+
+const NodeType* find_node_type(std::string_view name) {
+  for (const NodeType* type : node_types()) {
+    if (type->name == name) return type;
+  }
+  return nullptr;
+}
+
+}  // namespace terrain

@@ -1,0 +1,274 @@
+#include "terrain/scene.hpp"
+
+#include <openssl/evp.h>
+
+#include <array>
+#include <cstdio>
+#include <set>
+
+#include "field_reader.hpp"
+#include "terrain/evaluate.hpp"
+#include "terrain/noise.hpp"
+
+namespace terrain {
+
+std::string sha256_hex(std::string_view bytes) {
+  std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
+  unsigned int length = 0;
+  EVP_Digest(bytes.data(), bytes.size(), digest.data(), &length, EVP_sha256(), nullptr);
+  std::string hex;
+  hex.reserve(length * 2);
+  for (unsigned int i = 0; i < length; ++i) {
+    std::array<char, 3> byte{};
+    std::snprintf(byte.data(), byte.size(), "%02x", digest[i]);
+    hex += byte.data();
+  }
+  return hex;
+}
+
+std::uint32_t ParseContext::noise_seed(std::int64_t node_seed) const {
+  return noise::hash(scene_seed, static_cast<std::uint32_t>(node_seed));
+}
+
+Box2 Scene::area() const {
+  if (extent) return *extent;
+  if (!bounds.support.empty() && std::isfinite(bounds.support.lo.x)) return bounds.support;
+  return Box2::around({0, 0}, 1000.0f);
+}
+
+namespace {
+
+struct ParsedNode {
+  NodePtr node;
+  nlohmann::json canonical;
+  std::int64_t expanded_size = 0;
+  int height = 1;  ///< levels below and including this node, references expanded
+};
+
+class SceneParser {
+ public:
+  SceneParser(const nlohmann::json& document, const ParseOptions& options)
+      : document_(document), options_(options) {
+    context_.options = &options_;
+  }
+
+  Result<Scene> parse();
+
+ private:
+  Result<ParsedNode> parse_node(const nlohmann::json& j, const std::string& pointer, int depth);
+  Result<ParsedNode> resolve(const std::string& name, const std::string& pointer, int depth);
+
+  const nlohmann::json& document_;
+  const ParseOptions& options_;
+  ParseContext context_;
+  const nlohmann::json* definitions_ = nullptr;
+  std::map<std::string, ParsedNode, std::less<>> parsed_definitions_;
+  std::set<std::string, std::less<>> in_progress_;
+};
+
+Result<ParsedNode> SceneParser::resolve(const std::string& name, const std::string& pointer,
+                                        int depth) {
+  if (auto it = parsed_definitions_.find(name); it != parsed_definitions_.end()) {
+    return it->second;
+  }
+  if (definitions_ == nullptr || !definitions_->contains(name)) {
+    return Error{"refers to an undefined definition '" + name + "'", pointer};
+  }
+  if (in_progress_.contains(name)) {
+    return Error{"definition '" + name + "' refers to itself (a cycle)", pointer};
+  }
+  in_progress_.insert(name);
+  Result<ParsedNode> parsed =
+      parse_node((*definitions_)[name], pointer_join("/definitions", name), depth);
+  in_progress_.erase(name);
+  if (!parsed) return parsed;
+  parsed_definitions_.emplace(name, *parsed);
+  return parsed;
+}
+
+Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::string& pointer,
+                                           int depth) {
+  if (depth > options_.limits.max_depth) {
+    return Error{"nesting is deeper than the limit of " +
+                     std::to_string(options_.limits.max_depth) + " levels",
+                 pointer};
+  }
+  if (!j.is_object()) return Error{"a node must be a JSON object", pointer};
+  if (j.contains("ref")) {
+    const nlohmann::json& ref = j["ref"];
+    if (!ref.is_string()) return Error{"must be the name of a definition", pointer + "/ref"};
+    if (j.size() != 1) {
+      return Error{"a reference node has only \"ref\"; wrap it in a transform to place it",
+                   pointer};
+    }
+    const std::string name = ref.get<std::string>();
+    Result<ParsedNode> target = resolve(name, pointer + "/ref", depth);
+    if (!target) return target.error();
+    ParsedNode out = *target;
+    if (depth + out.height - 1 > options_.limits.max_depth) {
+      return Error{"expanding this reference nests deeper than the limit of " +
+                       std::to_string(options_.limits.max_depth) + " levels",
+                   pointer};
+    }
+    out.canonical = nlohmann::json{{"ref", name}};
+    return out;
+  }
+  const auto type_it = j.find("type");
+  if (type_it == j.end()) return Error{"is required (or \"ref\")", pointer + "/type"};
+  if (!type_it->is_string()) return Error{"must be a string", pointer + "/type"};
+  const NodeType* type = find_node_type(type_it->get<std::string>());
+  if (type == nullptr) {
+    std::string known;
+    for (const NodeType* t : node_types()) known += (known.empty() ? "" : ", ") + std::string(t->name);
+    return Error{"unknown node type '" + type_it->get<std::string>() + "' (known: " + known + ")",
+                 pointer + "/type"};
+  }
+
+  auto node = std::make_shared<Node>();
+  node->type = type;
+  node->pointer = pointer;
+  nlohmann::json canonical = nlohmann::json::object();
+  canonical["type"] = type->name;
+  if (const auto id = j.find("id"); id != j.end()) {
+    if (!id->is_string()) return Error{"must be a string", pointer + "/id"};
+    node->id = id->get<std::string>();
+    canonical["id"] = node->id;
+  }
+
+  std::int64_t size = 1;
+  int height = 1;
+  const auto children_it = j.find("children");
+  if (type->max_children == 0) {
+    if (children_it != j.end()) {
+      return Error{"a " + std::string(type->name) + " has no children", pointer + "/children"};
+    }
+  } else {
+    if (children_it == j.end() || !children_it->is_array()) {
+      return Error{"must be an array of nodes", pointer + "/children"};
+    }
+    const std::size_t count = children_it->size();
+    if (count < type->min_children || count > type->max_children) {
+      const std::string expected =
+          type->min_children == type->max_children
+              ? std::to_string(type->min_children)
+              : "at least " + std::to_string(type->min_children);
+      return Error{"a " + std::string(type->name) + " takes " + expected + " children, not " +
+                       std::to_string(count),
+                   pointer + "/children"};
+    }
+    nlohmann::json canonical_children = nlohmann::json::array();
+    for (std::size_t i = 0; i < count; ++i) {
+      Result<ParsedNode> child =
+          parse_node((*children_it)[i], pointer_join(pointer + "/children", i), depth + 1);
+      if (!child) return child.error();
+      node->children.push_back(child->node);
+      canonical_children.push_back(std::move(child->canonical));
+      size += child->expanded_size;
+      height = std::max(height, child->height + 1);
+    }
+    canonical["children"] = std::move(canonical_children);
+  }
+  if (size > options_.limits.max_nodes) {
+    return Error{"the scene expands to more than " + std::to_string(options_.limits.max_nodes) +
+                     " nodes",
+                 pointer};
+  }
+
+  FieldReader reader(j, pointer);
+  reader.skip("type");
+  reader.skip("id");
+  reader.skip("children");
+  Result<NodeParams> params = type->parse(reader, context_);
+  if (!params) return params.error();
+  reader.reject_unknown();
+  if (!reader.ok()) return reader.error();
+  node->params = std::move(*params);
+  for (auto& [key, value] : node->params.canonical.items()) canonical[key] = value;
+  return ParsedNode{std::move(node), std::move(canonical), size, height};
+}
+
+Result<Scene> SceneParser::parse() {
+  if (!document_.is_object()) return Error{"a scene must be a JSON object", ""};
+  FieldReader reader(document_, "");
+  Scene scene;
+  const std::string format = reader.string("format", kSceneFormat);
+  if (reader.ok() && format != kSceneFormat) {
+    reader.fail("must be \"" + std::string(kSceneFormat) + "\"", "format");
+  }
+  scene.name = reader.string("name", "");
+  scene.seed = static_cast<std::uint32_t>(reader.integer("seed", 0, 0, 0xffffffffLL));
+  scene.base_elevation = static_cast<float>(reader.number("base_elevation", 0.0, {-1e5, 1e5}));
+  if (reader.has("extent")) {
+    FieldReader extent = reader.nested("extent");
+    const Vec2 lo = extent.vec2("min", std::nullopt, {-1e7, 1e7});
+    const Vec2 hi = extent.vec2("max", std::nullopt, {-1e7, 1e7});
+    if (extent.ok() && !(lo.x < hi.x && lo.y < hi.y)) {
+      extent.fail("must be larger than min on both axes", "max");
+    }
+    reader.adopt("extent", extent);
+    scene.extent = Box2{lo, hi};
+  }
+  if (reader.has("georeference")) {
+    FieldReader geo = reader.nested("georeference");
+    scene.georeference.latitude = geo.number("latitude", 0.0, {-85.0, 85.0});
+    scene.georeference.longitude = geo.number("longitude", 0.0, {-180.0, 180.0});
+    scene.georeference.heading = geo.number("heading", 0.0, {-360.0, 360.0});
+    reader.adopt("georeference", geo);
+  }
+  definitions_ = reader.raw("definitions");
+  if (definitions_ != nullptr && !definitions_->is_object()) {
+    reader.fail("must be an object mapping names to nodes", "definitions");
+  }
+  const nlohmann::json* root = reader.raw("root");
+  if (root == nullptr) reader.fail("is required", "root");
+  reader.reject_unknown();
+  if (!reader.ok()) return reader.error();
+
+  context_.scene_seed = scene.seed;
+  context_.base_elevation = scene.base_elevation;
+  Result<ParsedNode> parsed_root = parse_node(*root, "/root", 1);
+  if (!parsed_root) return parsed_root.error();
+
+  nlohmann::json canonical = reader.canonical();
+  if (definitions_ != nullptr) {
+    // Every definition must be valid, referenced or not: nothing unchecked is stored.
+    nlohmann::json defs = nlohmann::json::object();
+    for (const auto& [name, value] : definitions_->items()) {
+      Result<ParsedNode> def = resolve(name, pointer_join("/definitions", name), 1);
+      if (!def) return def.error();
+      defs[name] = def->canonical;
+      scene.definitions.emplace(name, def->node);
+    }
+    canonical["definitions"] = std::move(defs);
+  }
+  canonical["root"] = parsed_root->canonical;
+  scene.root = parsed_root->node;
+  scene.bounds = tree_bounds(*scene.root, {});
+  scene.canonical = std::move(canonical);
+  scene.hash = "sha256:" + sha256_hex(scene.canonical_text());
+  return scene;
+}
+
+}  // namespace
+
+Result<Scene> parse_scene(const nlohmann::json& document, const ParseOptions& options) {
+  SceneParser parser(document, options);
+  return parser.parse();
+}
+
+Result<Scene> parse_scene_text(std::string_view text, const ParseOptions& options) {
+  nlohmann::json document = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (document.is_discarded()) {
+    // Parse again with exceptions only to learn where it failed (never escapes).
+    try {
+      const nlohmann::json ignored = nlohmann::json::parse(text);
+    } catch (const nlohmann::json::parse_error& e) {
+      return Error{"the scene is not valid JSON: byte " + std::to_string(e.byte) + ": " + e.what(),
+                   ""};
+    }
+    return Error{"the scene is not valid JSON", ""};
+  }
+  return parse_scene(document, options);
+}
+
+}  // namespace terrain

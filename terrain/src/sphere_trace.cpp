@@ -1,0 +1,253 @@
+#include "terrain/sphere_trace.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <numbers>
+#include <thread>
+
+namespace terrain {
+namespace {
+
+Vec3 at(const Ray& r, float t) {
+  return {r.origin.x + t * r.direction.x, r.origin.y + t * r.direction.y,
+          r.origin.z + t * r.direction.z};
+}
+
+float height_above(Evaluator& e, Vec3 p, float spacing) {
+  return p.z - e.sample({p.x, p.y}, spacing).elevation;
+}
+
+/// Ray parameter interval inside the domain's box (slab method); empty when lo > hi.
+Interval clip(const TraceDomain& d, const Ray& r, float t_max) {
+  float lo = 0.0f, hi = t_max;
+  const float o[3] = {r.origin.x, r.origin.y, r.origin.z};
+  const float u[3] = {r.direction.x, r.direction.y, r.direction.z};
+  const float mins[3] = {d.area.lo.x, d.area.lo.y, d.elevation.lo};
+  const float maxs[3] = {d.area.hi.x, d.area.hi.y, d.elevation.hi};
+  for (int k = 0; k < 3; ++k) {
+    if (std::abs(u[k]) < 1e-12f) {
+      if (o[k] < mins[k] || o[k] > maxs[k]) return {};
+      continue;
+    }
+    float t0 = (mins[k] - o[k]) / u[k];
+    float t1 = (maxs[k] - o[k]) / u[k];
+    if (t0 > t1) std::swap(t0, t1);
+    lo = std::max(lo, t0);
+    hi = std::min(hi, t1);
+  }
+  return {lo, hi};
+}
+
+Vec3 normalise(Vec3 v) {
+  const float l = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+  return {v.x / l, v.y / l, v.z / l};
+}
+
+}  // namespace
+
+TraceDomain trace_domain(const Program& program, const Box2& area) {
+  Interval z = program.bounds.elevation.hull(Interval::point(program.base_elevation));
+  return {area, {z.lo - 1.0f, z.hi + 1.0f}};
+}
+
+TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray,
+                         const TraceOptions& options) {
+  TraceResult result;
+  const Interval span = clip(domain, ray, options.t_max);
+  if (span.empty()) return result;
+  const float horizontal = std::sqrt(ray.direction.x * ray.direction.x +
+                                     ray.direction.y * ray.direction.y);
+  const float global_lambda =
+      evaluator.bounds({Box2::everywhere(), 0.0f}).elevation_lipschitz;
+  float t = span.lo;
+  float delta = options.initial_step;
+  while (t <= span.hi && result.steps < options.max_steps) {
+    ++result.steps;
+    const Vec3 p = at(ray, t);
+    const float spacing = options.lod_per_metre * t;
+    const float h = height_above(evaluator, p, spacing);
+    if (h < options.epsilon) {
+      result.hit = true;
+      result.t = t;
+      result.position = p;
+      return result;
+    }
+    float lambda = global_lambda;
+    float limit = std::numeric_limits<float>::infinity();
+    if (options.accelerated) {
+      // Local bound over the candidate segment [t, t + δ] (its horizontal footprint).
+      const Vec3 q = at(ray, t + delta);
+      const Box2 box = Box2::of_point({p.x, p.y}).with({q.x, q.y});
+      lambda = evaluator.bounds({box, spacing}).elevation_lipschitz;
+      limit = delta;
+    }
+    // h_Δ'(t) ≥ u_z − |u_xy| λ: if that is non-negative the ray climbs away from the terrain.
+    const float approach = horizontal * lambda - ray.direction.z;
+    float step = approach > 0.0f ? h / approach : std::numeric_limits<float>::infinity();
+    step = std::min(step, limit);
+    if (!std::isfinite(step)) break;  // moving away everywhere: no hit in the domain
+    t += step;
+    if (options.accelerated) delta *= 2.0f;
+    if (options.accelerated && step < limit) delta = std::max(options.initial_step, step * 2.0f);
+  }
+  return result;
+}
+
+TraceResult march_dense(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray,
+                        float step, float t_max) {
+  TraceResult result;
+  const Interval span = clip(domain, ray, t_max);
+  if (span.empty()) return result;
+  float t_prev = span.lo;
+  float h_prev = height_above(evaluator, at(ray, t_prev), 0.0f);
+  if (h_prev < 0.0f) return {true, t_prev, at(ray, t_prev), 1};
+  for (float t = span.lo + step; t <= span.hi + step; t += step) {
+    ++result.steps;
+    const float tt = std::min(t, span.hi);
+    const float h = height_above(evaluator, at(ray, tt), 0.0f);
+    if (h < 0.0f) {
+      float lo = t_prev, hi = tt;
+      for (int k = 0; k < 40; ++k) {
+        const float mid = 0.5f * (lo + hi);
+        (height_above(evaluator, at(ray, mid), 0.0f) < 0.0f ? hi : lo) = mid;
+      }
+      return {true, hi, at(ray, hi), result.steps};
+    }
+    t_prev = tt;
+    h_prev = h;
+    if (tt >= span.hi) break;
+  }
+  return result;
+}
+
+Ray Camera::ray(float px, float py) const {
+  const Vec3 forward = normalise({target.x - position.x, target.y - position.y, target.z - position.z});
+  Vec3 right = normalise({forward.y, -forward.x, 0.0f});
+  if (!std::isfinite(right.x)) right = {1, 0, 0};
+  const Vec3 up{right.y * forward.z - right.z * forward.y, right.z * forward.x - right.x * forward.z,
+                right.x * forward.y - right.y * forward.x};
+  const float tan_half = std::tan(vertical_fov_degrees * std::numbers::pi_v<float> / 360.0f);
+  const float aspect = static_cast<float>(width) / static_cast<float>(height);
+  const float sx = (2.0f * (px / static_cast<float>(width)) - 1.0f) * tan_half * aspect;
+  const float sy = (1.0f - 2.0f * (py / static_cast<float>(height))) * tan_half;
+  return {position, normalise({forward.x + sx * right.x + sy * up.x,
+                               forward.y + sx * right.y + sy * up.y,
+                               forward.z + sx * right.z + sy * up.z})};
+}
+
+Camera default_camera(const Program& program, const Box2& area, int width, int height) {
+  const Vec2 c = area.center();
+  const Vec2 s = area.size();
+  const float span = std::max(s.x, s.y);
+  const Interval z = program.bounds.elevation.hull(Interval::point(program.base_elevation));
+  Camera cam;
+  cam.width = width;
+  cam.height = height;
+  cam.position = {c.x - 0.55f * span, c.y - 0.75f * span, z.hi + 0.45f * span};
+  cam.target = {c.x, c.y, 0.5f * (z.lo + z.hi)};
+  return cam;
+}
+
+namespace {
+
+struct Rgb {
+  float r, g, b;
+};
+
+Rgb mix(Rgb a, Rgb b, float t) {
+  return {a.r + (b.r - a.r) * t, a.g + (b.g - a.g) * t, a.b + (b.b - a.b) * t};
+}
+
+Rgb sky(const Ray& ray) {
+  const float t = std::clamp(ray.direction.z * 2.0f + 0.3f, 0.0f, 1.0f);
+  return mix({0.80f, 0.86f, 0.92f}, {0.33f, 0.55f, 0.85f}, t);
+}
+
+Rgb shade(const FieldSample& s, float z, const Interval& range, float water_level) {
+  const Vec3 n = normalise({-s.elevation_gradient.x, -s.elevation_gradient.y, 1.0f});
+  const float slope = std::sqrt(1.0f - std::min(1.0f, n.z * n.z));  // sine of the slope angle
+  const float height = range.width() > 0 ? (z - range.lo) / range.width() : 0.5f;
+  Rgb ground = mix({0.32f, 0.45f, 0.20f}, {0.55f, 0.50f, 0.38f}, std::clamp(height * 1.4f, 0.0f, 1.0f));
+  ground = mix(ground, {0.45f, 0.42f, 0.40f}, std::clamp((slope - 0.45f) * 4.0f, 0.0f, 1.0f));
+  if (height > 0.8f && slope < 0.6f) ground = mix(ground, {0.95f, 0.96f, 0.98f}, (height - 0.8f) * 5.0f);
+  if (z < water_level) ground = {0.12f, 0.30f, 0.45f};
+  const Vec3 sun = normalise({-0.5f, -0.4f, 0.75f});
+  const float diffuse = std::max(0.0f, n.x * sun.x + n.y * sun.y + n.z * sun.z);
+  const float light = 0.30f + 0.75f * diffuse;
+  return {ground.r * light, ground.g * light, ground.b * light};
+}
+
+std::uint8_t to_byte(float v) {
+  return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
+}
+
+}  // namespace
+
+Picture render(const Program& program, const Box2& area, const Camera& camera,
+               const RenderOptions& options) {
+  Picture picture;
+  picture.width = camera.width;
+  picture.height = camera.height;
+  picture.rgb.assign(static_cast<std::size_t>(camera.width * camera.height) * 3, 0);
+  picture.depth.assign(static_cast<std::size_t>(camera.width * camera.height), -1.0f);
+  const TraceDomain domain = trace_domain(program, area);
+  const float span = std::max(area.size().x, area.size().y);
+  std::atomic<int> next_row{0};
+  std::atomic<int> rows_done{0};
+  std::atomic<std::int64_t> steps{0};
+  TraceOptions trace = options.trace;
+  if (trace.lod_per_metre == 0.0f) {
+    // One pixel's footprint per metre of distance: detail the picture can show, no more.
+    trace.lod_per_metre = 2.0f * std::tan(camera.vertical_fov_degrees * std::numbers::pi_v<float> / 360.0f) /
+                          static_cast<float>(camera.height);
+  }
+  trace.t_max = std::min(trace.t_max, 4.0f * span + 1e4f);
+
+  auto worker = [&] {
+    Evaluator evaluator(program);
+    for (int y = next_row.fetch_add(1); y < camera.height; y = next_row.fetch_add(1)) {
+      for (int x = 0; x < camera.width; ++x) {
+        const Ray ray = camera.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
+        const TraceResult hit = sphere_trace(evaluator, domain, ray, trace);
+        steps += hit.steps;
+        Rgb color = sky(ray);
+        const std::size_t at = static_cast<std::size_t>(y * camera.width + x);
+        if (hit.hit) {
+          const FieldSample s = evaluator.sample({hit.position.x, hit.position.y},
+                                                 trace.lod_per_metre * hit.t);
+          const Rgb surface = shade(s, hit.position.z, domain.elevation, options.water_level);
+          const float fog = 1.0f - std::exp(-hit.t / (2.5f * span));
+          color = mix(surface, {0.80f, 0.86f, 0.92f}, fog);
+          picture.depth[at] = hit.t;
+        }
+        picture.rgb[at * 3 + 0] = to_byte(color.r);
+        picture.rgb[at * 3 + 1] = to_byte(color.g);
+        picture.rgb[at * 3 + 2] = to_byte(color.b);
+      }
+      ++rows_done;
+    }
+  };
+  const int count = options.threads > 0
+                        ? options.threads
+                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<std::thread> threads;
+  for (int t = 1; t < count; ++t) threads.emplace_back(worker);
+  if (options.progress) {
+    // The calling thread reports progress while the others trace.
+    std::thread last(worker);
+    while (rows_done.load() < camera.height) {
+      options.progress(static_cast<float>(rows_done.load()) / static_cast<float>(camera.height));
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    last.join();
+    options.progress(1.0f);
+  } else {
+    worker();
+  }
+  for (std::thread& t : threads) t.join();
+  picture.total_steps = steps.load();
+  return picture;
+}
+
+}  // namespace terrain
