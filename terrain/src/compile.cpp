@@ -95,7 +95,7 @@ class Compiler {
       }
       case NodeCategory::binary: {
         emit(*node.children[0], false);
-        emit(*node.children[1], true);
+        emit(*node.children[1], node.type->second_child_acts_by_weight);
         push(Op::combine, node, params_of(node));
         grow(-1);
         break;

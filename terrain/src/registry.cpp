@@ -6,7 +6,10 @@
 
 #include "nodes/add.hpp"
 #include "nodes/blend.hpp"
+#include "nodes/contour.hpp"
+#include "nodes/curve.hpp"
 #include "nodes/disc.hpp"
+#include "nodes/image.hpp"
 #include "nodes/lod.hpp"
 #include "nodes/replace.hpp"
 #include "nodes/transform.hpp"
@@ -16,9 +19,10 @@
 namespace terrain {
 
 std::span<const NodeType* const> node_types() {
-  static const std::array<const NodeType*, 7> kTypes{
-      &disc_node_type(),  &blend_node_type(),     &replace_node_type(), &add_node_type(),
-      &lod_node_type(),   &transform_node_type(), &warp_node_type(),
+  static const std::array<const NodeType*, 10> kTypes{
+      &disc_node_type(),    &curve_node_type(), &contour_node_type(), &image_node_type(),
+      &blend_node_type(),   &replace_node_type(), &add_node_type(),
+      &lod_node_type(),     &transform_node_type(), &warp_node_type(),
   };
   return kTypes;
 }

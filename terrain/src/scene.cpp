@@ -262,9 +262,8 @@ Result<Scene> parse_scene_text(std::string_view text, const ParseOptions& option
     // Parse again with exceptions only to learn where it failed (never escapes).
     try {
       const nlohmann::json ignored = nlohmann::json::parse(text);
-    } catch (const nlohmann::json::parse_error& e) {
-      return Error{"the scene is not valid JSON: byte " + std::to_string(e.byte) + ": " + e.what(),
-                   ""};
+    } catch (const nlohmann::json::exception& e) {
+      return Error{std::string("the scene is not valid JSON: ") + e.what(), ""};
     }
     return Error{"the scene is not valid JSON", ""};
   }

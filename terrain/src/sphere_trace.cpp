@@ -88,29 +88,30 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
     step = std::min(step, limit);
     if (!std::isfinite(step)) break;  // moving away everywhere: no hit in the domain
     t += step;
-    if (options.accelerated) delta *= 2.0f;
-    if (options.accelerated && step < limit) delta = std::max(options.initial_step, step * 2.0f);
+    delta *= 2.0f;  // §7.2 step 2.3: always try a longer segment next
+
   }
   return result;
 }
 
 TraceResult march_dense(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray,
-                        float step, float t_max) {
+                        float step, float t_max, float lod_per_metre) {
   TraceResult result;
   const Interval span = clip(domain, ray, t_max);
   if (span.empty()) return result;
+  auto h_at = [&](float t) { return height_above(evaluator, at(ray, t), lod_per_metre * t); };
   float t_prev = span.lo;
-  float h_prev = height_above(evaluator, at(ray, t_prev), 0.0f);
+  float h_prev = h_at(t_prev);
   if (h_prev < 0.0f) return {true, t_prev, at(ray, t_prev), 1};
   for (float t = span.lo + step; t <= span.hi + step; t += step) {
     ++result.steps;
     const float tt = std::min(t, span.hi);
-    const float h = height_above(evaluator, at(ray, tt), 0.0f);
+    const float h = h_at(tt);
     if (h < 0.0f) {
       float lo = t_prev, hi = tt;
       for (int k = 0; k < 40; ++k) {
         const float mid = 0.5f * (lo + hi);
-        (height_above(evaluator, at(ray, mid), 0.0f) < 0.0f ? hi : lo) = mid;
+        (h_at(mid) < 0.0f ? hi : lo) = mid;
       }
       return {true, hi, at(ray, hi), result.steps};
     }
@@ -134,6 +135,11 @@ Ray Camera::ray(float px, float py) const {
   return {position, normalise({forward.x + sx * right.x + sy * up.x,
                                forward.y + sx * right.y + sy * up.y,
                                forward.z + sx * right.z + sy * up.z})};
+}
+
+float pixel_footprint(const Camera& camera) {
+  return 2.0f * std::tan(camera.vertical_fov_degrees * std::numbers::pi_v<float> / 360.0f) /
+         static_cast<float>(camera.height);
 }
 
 Camera default_camera(const Program& program, const Box2& area, int width, int height) {
@@ -199,8 +205,7 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
   TraceOptions trace = options.trace;
   if (trace.lod_per_metre == 0.0f) {
     // One pixel's footprint per metre of distance: detail the picture can show, no more.
-    trace.lod_per_metre = 2.0f * std::tan(camera.vertical_fov_degrees * std::numbers::pi_v<float> / 360.0f) /
-                          static_cast<float>(camera.height);
+    trace.lod_per_metre = pixel_footprint(camera);
   }
   trace.t_max = std::min(trace.t_max, 4.0f * span + 1e4f);
 

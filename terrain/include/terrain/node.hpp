@@ -76,6 +76,9 @@ struct NodeType {
   NodeCategory category = NodeCategory::primitive;
   std::uint16_t min_children = 0;
   std::uint16_t max_children = 0;  ///< 0xffff = unbounded
+  /// Binary operators whose B child acts only through its weight (replace, add): B may be culled
+  /// where it has none. Not so for lod, which interpolates both children regardless.
+  bool second_child_acts_by_weight = false;
   std::string_view summary;        ///< one line for docs and --help
   NodeParser parse = nullptr;
   NodeKernels kernels;

@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "terrain/image_io.hpp"
 #include "terrain/node.hpp"
 #include "terrain/result.hpp"
 
@@ -18,16 +19,9 @@ namespace terrain {
 
 inline constexpr std::string_view kSceneFormat = "terrain-scene/1";
 
-/// Pixels of a heightfield image referenced by a scene (row 0 is the image's top).
-struct ImageData {
-  int width = 0;
-  int height = 0;
-  std::vector<float> samples;
-  std::vector<float> weights;  ///< empty, or one weight per sample (the image's alpha)
-};
-
-/// Resolves an image reference from a scene (a file path, or a content hash in the server's store).
-using ImageResolver = std::function<Result<ImageData>(std::string_view reference)>;
+/// Resolves an image reference from a scene (a file path, or a content hash in the server's store)
+/// to its pixels (terrain/image_io.hpp reads and decodes them).
+using ImageResolver = std::function<Result<Raster>(std::string_view reference)>;
 
 /// Limits applied while parsing untrusted scenes.
 struct SceneLimits {

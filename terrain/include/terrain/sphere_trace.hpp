@@ -24,7 +24,7 @@ struct Ray {
 struct TraceOptions {
   bool accelerated = true;
   float epsilon = 0.01f;        ///< metres above the surface that count as a hit
-  int max_steps = 2048;
+  int max_steps = 1 << 16;
   float initial_step = 10.0f;   ///< δ of the accelerated algorithm, metres
   float lod_per_metre = 0.0f;   ///< sample spacing grows by this much per metre of distance
   float t_max = 1e7f;
@@ -47,9 +47,10 @@ TraceDomain trace_domain(const Program& program, const Box2& area);
 TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray,
                          const TraceOptions& options = {});
 
-/// Reference: marches with a fixed step and reports the first sign change of h (bisected).
+/// Reference: marches with a fixed step and reports the first sign change of h (bisected), at the
+/// same level of detail as sphere_trace with `lod_per_metre`.
 TraceResult march_dense(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray,
-                        float step, float t_max);
+                        float step, float t_max, float lod_per_metre = 0.0f);
 
 /// A pinhole camera looking from `position` towards `target`, z up.
 struct Camera {
@@ -60,6 +61,9 @@ struct Camera {
   int height = 400;
   Ray ray(float px, float py) const;  ///< through pixel centre (px, py), py = 0 at the top
 };
+
+/// Sample spacing per metre of distance that matches one pixel of `camera`.
+float pixel_footprint(const Camera& camera);
 
 /// A shaded picture: sky, fog, height/slope materials, sun light from exact gradients.
 struct Picture {

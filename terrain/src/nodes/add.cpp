@@ -70,6 +70,7 @@ const NodeType& add_node_type() {
       .category = NodeCategory::binary,
       .min_children = 2,
       .max_children = 2,
+      .second_child_acts_by_weight = true,
       .summary = "adds the second child's elevation, scaled by its weight, to the first (dunes, "
                  "details)",
       .parse = parse_add,

@@ -71,6 +71,7 @@ const NodeType& replace_node_type() {
       .category = NodeCategory::binary,
       .min_children = 2,
       .max_children = 2,
+      .second_child_acts_by_weight = true,
       .summary = "the second child replaces the first where it has weight (lakes, roads, craters)",
       .parse = parse_replace,
       .kernels = {.combine = replace_combine, .combine_bounds = replace_bounds},

@@ -107,8 +107,8 @@ const NodeType& warp_node_type() {
                   .warp_field = warp_field,
                   .warp_box = warp_box,
                   .warp_bounds = warp_bounds},
-      .example_json = R"({"type": "warp", "noise": {"kind": "fbm", "amplitude": 120,
- "wavelength": 2000, "octaves": 3, "seed": 4}, "children": [
+      .example_json = R"({"type": "warp", "noise": {"kind": "fbm", "amplitude": 40,
+ "wavelength": 1500, "octaves": 3, "seed": 4}, "children": [
  {"type": "disc", "center": [0, 0], "radius": 1200, "elevation": 250}]})",
   };
   return type;

@@ -1,0 +1,87 @@
+// f(p)/s per core for every example scene: single points (the sphere tracer's access pattern)
+// and 8×8-block grids (tiles), at full detail and at a typical tile's sample spacing.
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "terrain/evaluate.hpp"
+#include "terrain/image_io.hpp"
+#include "terrain/program.hpp"
+#include "terrain/scene.hpp"
+
+namespace {
+
+using namespace terrain;
+namespace fs = std::filesystem;
+
+const fs::path kScenes = fs::path(TERRAIN_SOURCE_DIR) / "config" / "scenes";
+
+struct Loaded {
+  Scene scene;
+  Program program;
+};
+
+const Loaded& load(const std::string& name) {
+  static std::map<std::string, Loaded> cache;
+  auto it = cache.find(name);
+  if (it != cache.end()) return it->second;
+  std::ifstream in(kScenes / (name + ".json"));
+  std::stringstream text;
+  text << in.rdbuf();
+  ParseOptions options;
+  options.images = [](std::string_view ref) { return read_heightfield((kScenes / std::string(ref)).string()); };
+  Scene scene = parse_scene_text(text.str(), options).value();
+  Program program = compile(scene).value();
+  return cache.emplace(name, Loaded{std::move(scene), std::move(program)}).first->second;
+}
+
+void points(benchmark::State& state, const std::string& name, float spacing) {
+  const Loaded& l = load(name);
+  Evaluator e(l.program);
+  const Box2 area = l.scene.area();
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> ux(area.lo.x, area.hi.x), uy(area.lo.y, area.hi.y);
+  std::vector<Vec2> ps(4096);
+  for (Vec2& p : ps) p = {ux(rng), uy(rng)};
+  std::size_t k = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(e.sample(ps[k++ & 4095], spacing));
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+
+void grid(benchmark::State& state, const std::string& name, int size) {
+  const Loaded& l = load(name);
+  const Box2 area = l.scene.area();
+  const double step = static_cast<double>(std::max(area.size().x, area.size().y)) / (size - 1);
+  const GridSpec spec{area.lo.x, area.lo.y, step, size, size, -1.0f};
+  for (auto _ : state) {
+    GridResult r = evaluate_grid(l.program, spec, 1);
+    benchmark::DoNotOptimize(r.elevation.data());
+  }
+  state.SetItemsProcessed(state.iterations() * size * size);
+  state.counters["spacing_m"] = step;
+}
+
+int register_all() {
+  for (const auto& entry : fs::directory_iterator(kScenes)) {
+    if (entry.path().extension() != ".json") continue;
+    const std::string name = entry.path().stem().string();
+    benchmark::RegisterBenchmark(("Point/" + name + "/full_detail").c_str(),
+                                 [name](benchmark::State& s) { points(s, name, 0.0f); });
+    benchmark::RegisterBenchmark(("Point/" + name + "/spacing_10m").c_str(),
+                                 [name](benchmark::State& s) { points(s, name, 10.0f); });
+    benchmark::RegisterBenchmark(("Grid256/" + name).c_str(),
+                                 [name](benchmark::State& s) { grid(s, name, 256); });
+    benchmark::RegisterBenchmark(("Grid1024/" + name).c_str(),
+                                 [name](benchmark::State& s) { grid(s, name, 1024); });
+  }
+  return 0;
+}
+
+const int registered = register_all();
+
+}  // namespace

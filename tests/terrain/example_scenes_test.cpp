@@ -1,0 +1,110 @@
+// Every built-in example scene (config/scenes/*.json) through the same property checks as the
+// node types: parse, round trip, gradients, Lipschitz bounds, compiled program = tree.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "field_checks.hpp"
+#include "terrain/image_io.hpp"
+#include "terrain/sphere_trace.hpp"
+
+namespace terrain {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kScenes = fs::path(TERRAIN_SOURCE_DIR) / "config" / "scenes";
+
+std::vector<std::string> scene_names() {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(kScenes)) {
+    if (entry.path().extension() == ".json") names.push_back(entry.path().stem().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+Scene load(const std::string& name) {
+  std::ifstream in(kScenes / (name + ".json"));
+  std::stringstream text;
+  text << in.rdbuf();
+  ParseOptions options;
+  options.images = [](std::string_view ref) { return read_heightfield((kScenes / std::string(ref)).string()); };
+  return testing::parse_or_die(text.str(), options);
+}
+
+int primitive_count(const Node& node) {
+  if (node.type->category == NodeCategory::primitive) return 1;
+  int n = 0;
+  for (const NodePtr& c : node.children) n += primitive_count(*c);
+  return n;
+}
+
+class ExampleScene : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ExampleScene, ParsesAndRoundTrips) {
+  const Scene scene = load(GetParam());
+  EXPECT_FALSE(scene.name.empty());
+  ASSERT_TRUE(scene.extent.has_value());
+  ParseOptions options;
+  options.images = [](std::string_view ref) { return read_heightfield((kScenes / std::string(ref)).string()); };
+  const Scene again = testing::parse_or_die(scene.canonical_text(), options);
+  EXPECT_EQ(again.hash, scene.hash);
+}
+
+TEST_P(ExampleScene, GradientMatchesCentralDifferences) {
+  testing::expect_gradients_match(load(GetParam()), 300);
+}
+
+TEST_P(ExampleScene, SampledSlopesStayWithinLipschitzBounds) {
+  testing::expect_bounds_hold(load(GetParam()), 25, 30);
+}
+
+TEST_P(ExampleScene, CompiledProgramEqualsTree) {
+  testing::expect_program_equals_tree(load(GetParam()), 200);
+  testing::expect_program_equals_tree(load(GetParam()), 100, 20.0f);
+}
+
+TEST_P(ExampleScene, AcceleratedSphereTracingFindsEveryDenseHit) {
+  const Scene scene = load(GetParam());
+  const Program program = testing::compile_or_die(scene);
+  Evaluator e(program);
+  const Box2 area = scene.area();
+  // A 480×320 picture's camera, sampled sparsely; both tracers use its pixel footprint as LoD.
+  const Camera camera = default_camera(program, area, 480, 320);
+  const TraceDomain domain = trace_domain(program, area);
+  TraceOptions options;
+  options.lod_per_metre = pixel_footprint(camera);
+  for (int y = 0; y < camera.height; y += 60) {
+    for (int x = 0; x < camera.width; x += 60) {
+      const Ray ray = camera.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
+      const TraceResult dense = march_dense(e, domain, ray, 1.0f, 1e6f, options.lod_per_metre);
+      const TraceResult fast = sphere_trace(e, domain, ray, options);
+      if (dense.hit) {
+        ASSERT_TRUE(fast.hit) << "pixel " << x << ", " << y;
+        EXPECT_LE(fast.t, dense.t + 0.05f);
+      }
+    }
+  }
+}
+
+std::string test_name(const ::testing::TestParamInfo<std::string>& param) {
+  std::string n = param.param;
+  std::replace(n.begin(), n.end(), '-', '_');
+  return n;
+}
+
+INSTANTIATE_TEST_SUITE_P(Builtin, ExampleScene, ::testing::ValuesIn(scene_names()), test_name);
+
+TEST(ExampleScenes, AtLeastFiveExistAndOneHasSeventyPrimitives) {
+  const std::vector<std::string> names = scene_names();
+  EXPECT_GE(names.size(), 5u);
+  int most = 0;
+  for (const std::string& n : names) most = std::max(most, primitive_count(*load(n).root));
+  EXPECT_GE(most, 70);
+}
+
+}  // namespace
+}  // namespace terrain

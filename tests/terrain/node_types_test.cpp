@@ -1,0 +1,92 @@
+// Every registered node type, through its own example: the registry drives these tests, so a
+// new node type is checked without touching this file.
+#include <gtest/gtest.h>
+
+#include "field_checks.hpp"
+#include <cmath>
+#include <set>
+
+#include "terrain/node.hpp"
+
+namespace terrain {
+namespace {
+
+// Image examples get a synthetic heightfield (smooth hills with a sharp ridge), whatever the name.
+Result<Raster> synthetic_image(std::string_view) {
+  Raster r;
+  r.width = 48;
+  r.height = 40;
+  for (int y = 0; y < r.height; ++y) {
+    for (int x = 0; x < r.width; ++x) {
+      const float u = static_cast<float>(x) / 47.0f, v = static_cast<float>(y) / 39.0f;
+      r.samples.push_back(0.5f + 0.3f * std::sin(6.0f * u) * std::cos(5.0f * v) +
+                          0.2f * std::max(0.0f, 1.0f - 8.0f * std::abs(u - v)));
+    }
+  }
+  return r;
+}
+
+Scene parse_example(const std::string& text) {
+  ParseOptions options;
+  options.images = synthetic_image;
+  return testing::parse_or_die(text, options);
+}
+
+std::string scene_of(const NodeType& type) {
+  return R"({"format": "terrain-scene/1", "name": ")" + std::string(type.name) +
+         R"(", "seed": 3, "root": )" + std::string(type.example_json) + "}";
+}
+
+class EveryNodeType : public ::testing::TestWithParam<const NodeType*> {};
+
+TEST_P(EveryNodeType, ExampleParsesAndRoundTrips) {
+  const Scene scene = parse_example(scene_of(*GetParam()));
+  const Scene again = parse_example(scene.canonical_text());
+  EXPECT_EQ(scene.canonical_text(), again.canonical_text());
+  EXPECT_EQ(scene.hash, again.hash);
+}
+
+TEST_P(EveryNodeType, GradientMatchesCentralDifferences) {
+  testing::expect_gradients_match(parse_example(scene_of(*GetParam())), 400);
+}
+
+TEST_P(EveryNodeType, GradientMatchesCentralDifferencesAtCoarseDetail) {
+  testing::expect_gradients_match(parse_example(scene_of(*GetParam())), 200, 37.0f);
+}
+
+TEST_P(EveryNodeType, SampledSlopesStayWithinLipschitzBounds) {
+  testing::expect_bounds_hold(parse_example(scene_of(*GetParam())), 60, 40);
+}
+
+TEST_P(EveryNodeType, CompiledProgramEqualsTree) {
+  testing::expect_program_equals_tree(parse_example(scene_of(*GetParam())), 300);
+}
+
+TEST_P(EveryNodeType, UnknownFieldIsRejectedWithItsPointer) {
+  nlohmann::json doc = nlohmann::json::parse(scene_of(*GetParam()));
+  doc["root"]["colour"] = "blue";
+  ParseOptions options;
+  options.images = synthetic_image;
+  const Result<Scene> scene = parse_scene(doc, options);
+  ASSERT_FALSE(scene.ok());
+  EXPECT_EQ(scene.error().pointer, "/root/colour");
+}
+
+std::string type_name(const ::testing::TestParamInfo<const NodeType*>& info) {
+  return std::string(info.param->name);
+}
+
+INSTANTIATE_TEST_SUITE_P(Registry, EveryNodeType, ::testing::ValuesIn(node_types()), type_name);
+
+TEST(NodeRegistry, IdsAndNamesAreUnique) {
+  std::set<std::uint16_t> ids;
+  std::set<std::string_view> names;
+  for (const NodeType* t : node_types()) {
+    EXPECT_TRUE(ids.insert(t->id).second) << t->name;
+    EXPECT_TRUE(names.insert(t->name).second) << t->name;
+    EXPECT_EQ(find_node_type(t->name), t);
+  }
+}
+
+}  // namespace
+}  // namespace terrain

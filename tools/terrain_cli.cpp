@@ -1,0 +1,325 @@
+// terrain: command-line access to the terrain model — validate, sample, grid, render, program.
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "terrain/evaluate.hpp"
+#include "terrain/image_io.hpp"
+#include "terrain/program.hpp"
+#include "terrain/scene.hpp"
+#include "terrain/sphere_trace.hpp"
+
+namespace {
+
+using namespace terrain;
+
+constexpr const char* kUsage = R"(terrain — procedural terrain construction trees
+
+Usage:
+  terrain validate SCENE.json            check a scene; print its hash and bounds
+  terrain sample SCENE.json X Y [--lod S]
+                                         elevation, weight, gradient and Lipschitz bound at (X, Y)
+  terrain grid SCENE.json -o OUT [--size N] [--area X0,Y0,X1,Y1] [--lod S]
+                                         heightmap: OUT.tif (float32 metres) or OUT.png (16-bit,
+                                         scaled to the scene's elevation range, printed)
+  terrain render SCENE.json -o OUT.png [--width W] [--height H] [--plain] [--water Z]
+                                         sphere-traced picture with simple shading
+  terrain program SCENE.json             the compiled program as JSON
+  terrain nodes                          every node type: summary and example (JSON)
+  terrain --help
+
+Images referenced by a scene are read relative to the scene file.
+)";
+
+struct Args {
+  std::vector<std::string> positional;
+  std::map<std::string, std::string> options;
+  bool has(const std::string& k) const { return options.contains(k); }
+  std::string get(const std::string& k, const std::string& fallback) const {
+    auto it = options.find(k);
+    return it == options.end() ? fallback : it->second;
+  }
+};
+
+std::optional<Args> parse_args(int argc, char** argv) {
+  Args args;
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    if (a == "--plain" || a == "--help" || a == "-h") {
+      args.options[a] = "1";
+    } else if (a.rfind("-", 0) == 0 && a.size() > 1 && !std::isdigit(static_cast<unsigned char>(a[1])) && a[1] != '.') {
+      if (i + 1 >= argc) {
+        std::cerr << "terrain: option " << a << " needs a value\n";
+        return std::nullopt;
+      }
+      args.options[a] = argv[++i];
+    } else {
+      args.positional.push_back(a);
+    }
+  }
+  return args;
+}
+
+std::optional<double> to_number(const std::string& text) {
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(text, &used);
+    if (used != text.size() || !std::isfinite(v)) return std::nullopt;
+    return v;
+  } catch (...) {
+    return std::nullopt;
+  }
+}
+
+std::optional<Scene> load_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    std::cerr << "terrain: cannot read " << path << "\n";
+    return std::nullopt;
+  }
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  ParseOptions options;
+  options.images = [folder](std::string_view reference) -> Result<Raster> {
+    return read_heightfield((folder / std::string(reference)).string());
+  };
+  Result<Scene> scene = parse_scene_text(text.str(), options);
+  if (!scene) {
+    std::cerr << path << ": " << (scene.error().pointer.empty() ? "(document)" : scene.error().pointer)
+              << ": " << scene.error().message << "\n";
+    return std::nullopt;
+  }
+  return std::move(scene).value();
+}
+
+std::optional<Program> compile_scene(const Scene& scene) {
+  Result<Program> program = compile(scene);
+  if (!program) {
+    std::cerr << "terrain: " << program.error().pointer << ": " << program.error().message << "\n";
+    return std::nullopt;
+  }
+  return std::move(program).value();
+}
+
+void progress_bar(float fraction) {
+  static const bool tty = isatty(STDERR_FILENO) != 0;
+  const int width = 40;
+  const int filled = static_cast<int>(fraction * width);
+  std::fprintf(stderr, "%s[%.*s%*s] %3d%%%s", tty ? "\r" : "", filled,
+               "########################################", width - filled, "",
+               static_cast<int>(fraction * 100.0f), (tty && fraction < 1.0f) ? "" : "\n");
+  std::fflush(stderr);
+}
+
+int cmd_validate(const Args& args) {
+  const auto scene = load_scene(args.positional.at(1));
+  if (!scene) return 1;
+  const auto program = compile_scene(*scene);
+  if (!program) return 1;
+  const NodeBounds& b = program->bounds;
+  std::cout << nlohmann::json{{"valid", true},
+                              {"name", scene->name},
+                              {"hash", scene->hash},
+                              {"instructions", program->code.size()},
+                              {"parameters", program->pool.size()},
+                              {"support", {b.support.lo.x, b.support.lo.y, b.support.hi.x, b.support.hi.y}},
+                              {"elevation", {b.elevation.lo, b.elevation.hi}},
+                              {"lipschitz", b.elevation_lipschitz}}
+                   .dump(2)
+            << "\n";
+  return 0;
+}
+
+int cmd_sample(const Args& args) {
+  if (args.positional.size() != 4) {
+    std::cerr << "terrain sample: needs SCENE X Y\n";
+    return 2;
+  }
+  const auto x = to_number(args.positional[2]), y = to_number(args.positional[3]);
+  const auto lod = to_number(args.get("--lod", "0"));
+  if (!x || !y || !lod || *lod < 0) {
+    std::cerr << "terrain sample: X, Y and --lod must be numbers (lod ≥ 0)\n";
+    return 2;
+  }
+  const auto scene = load_scene(args.positional[1]);
+  if (!scene) return 1;
+  const auto program = compile_scene(*scene);
+  if (!program) return 1;
+  Evaluator e(*program);
+  const Vec2 p{static_cast<float>(*x), static_cast<float>(*y)};
+  const FieldSample s = e.sample(p, static_cast<float>(*lod));
+  const NodeBounds local = e.bounds({Box2::around(p, 1.0f), static_cast<float>(*lod)});
+  std::cout << nlohmann::json{{"x", *x},
+                              {"y", *y},
+                              {"elevation", s.elevation},
+                              {"weight", s.weight},
+                              {"gradient", {s.elevation_gradient.x, s.elevation_gradient.y}},
+                              {"lipschitz_local", local.elevation_lipschitz},
+                              {"lipschitz_global", program->bounds.elevation_lipschitz}}
+                   .dump(2)
+            << "\n";
+  return 0;
+}
+
+std::optional<Box2> parse_area(const std::string& text) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  std::string part;
+  while (std::getline(ss, part, ',')) {
+    const auto n = to_number(part);
+    if (!n) return std::nullopt;
+    v.push_back(*n);
+  }
+  if (v.size() != 4 || !(v[0] < v[2]) || !(v[1] < v[3])) return std::nullopt;
+  return Box2{{static_cast<float>(v[0]), static_cast<float>(v[1])},
+              {static_cast<float>(v[2]), static_cast<float>(v[3])}};
+}
+
+int cmd_grid(const Args& args) {
+  const std::string out = args.get("-o", "");
+  const auto size = to_number(args.get("--size", "512"));
+  if (out.empty() || !size || *size < 2 || *size > 8192 || std::floor(*size) != *size) {
+    std::cerr << "terrain grid: needs -o OUT.tif|OUT.png and --size from 2 to 8192\n";
+    return 2;
+  }
+  const auto scene = load_scene(args.positional.at(1));
+  if (!scene) return 1;
+  const auto program = compile_scene(*scene);
+  if (!program) return 1;
+  Box2 area = scene->area();
+  if (args.has("--area")) {
+    const auto a = parse_area(args.get("--area", ""));
+    if (!a) {
+      std::cerr << "terrain grid: --area must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1\n";
+      return 2;
+    }
+    area = *a;
+  }
+  const int n = static_cast<int>(*size);
+  const double side = std::max(area.size().x, area.size().y);
+  GridSpec grid{area.lo.x, area.lo.y, side / (n - 1), n, n, -1.0f};
+  if (args.has("--lod")) grid.lod_spacing = static_cast<float>(to_number(args.get("--lod", "0")).value_or(0));
+  const auto start = std::chrono::steady_clock::now();
+  const GridResult result = evaluate_grid(*program, grid);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  // Images store row 0 at the top (north); the grid's row 0 is the south.
+  std::vector<float> north_up(result.elevation.size());
+  for (int j = 0; j < n; ++j) {
+    std::copy_n(result.elevation.begin() + static_cast<std::ptrdiff_t>(j) * n, n,
+                north_up.begin() + static_cast<std::ptrdiff_t>(n - 1 - j) * n);
+  }
+  Status written = Status(Ok{});
+  nlohmann::json info{{"output", out}, {"size", n}, {"step", grid.step}, {"milliseconds", ms},
+                      {"origin", {grid.origin_x, grid.origin_y}}};
+  if (out.ends_with(".png")) {
+    const Interval z = program->bounds.elevation.hull(Interval::point(program->base_elevation));
+    const float scale = z.width() > 0 ? z.width() / 65535.0f : 1.0f;
+    std::vector<std::uint16_t> pixels(north_up.size());
+    for (std::size_t i = 0; i < north_up.size(); ++i) {
+      pixels[i] = static_cast<std::uint16_t>(std::lround(std::clamp((north_up[i] - z.lo) / scale, 0.0f, 65535.0f)));
+    }
+    written = write_png16(out, n, n, pixels.data());
+    info["elevation_offset"] = z.lo;
+    info["elevation_scale"] = scale;
+  } else {
+    written = write_float_tiff(out, n, n, north_up.data());
+  }
+  if (!written) {
+    std::cerr << "terrain grid: " << written.error().message << "\n";
+    return 1;
+  }
+  std::cout << info.dump(2) << "\n";
+  return 0;
+}
+
+int cmd_render(const Args& args) {
+  const std::string out = args.get("-o", "");
+  const auto width = to_number(args.get("--width", "960"));
+  const auto height = to_number(args.get("--height", "540"));
+  if (out.empty() || !width || !height || *width < 1 || *height < 1 || *width > 8192 || *height > 8192) {
+    std::cerr << "terrain render: needs -o OUT.png; --width/--height from 1 to 8192\n";
+    return 2;
+  }
+  const auto scene = load_scene(args.positional.at(1));
+  if (!scene) return 1;
+  const auto program = compile_scene(*scene);
+  if (!program) return 1;
+  const Box2 area = scene->area();
+  const Camera camera = default_camera(*program, area, static_cast<int>(*width), static_cast<int>(*height));
+  RenderOptions options;
+  options.trace.accelerated = !args.has("--plain");
+  if (args.has("--water")) options.water_level = static_cast<float>(to_number(args.get("--water", "0")).value_or(-1e9));
+  options.progress = progress_bar;
+  const auto start = std::chrono::steady_clock::now();
+  const Picture picture = render(*program, area, camera, options);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  const Status written = write_png_rgb8(out, picture.width, picture.height, picture.rgb.data());
+  if (!written) {
+    std::cerr << "terrain render: " << written.error().message << "\n";
+    return 1;
+  }
+  std::cout << nlohmann::json{{"output", out},
+                              {"milliseconds", ms},
+                              {"steps_per_pixel", static_cast<double>(picture.total_steps) / (picture.width * picture.height)}}
+                   .dump(2)
+            << "\n";
+  return 0;
+}
+
+int cmd_program(const Args& args) {
+  const auto scene = load_scene(args.positional.at(1));
+  if (!scene) return 1;
+  const auto program = compile_scene(*scene);
+  if (!program) return 1;
+  std::cout << program->to_json().dump(2) << "\n";
+  return 0;
+}
+
+int cmd_nodes() {
+  nlohmann::json out = nlohmann::json::array();
+  constexpr const char* kCategories[] = {"primitive", "blend", "binary", "warp"};
+  for (const NodeType* t : node_types()) {
+    out.push_back({{"type", t->name},
+                   {"id", t->id},
+                   {"category", kCategories[static_cast<int>(t->category)]},
+                   {"summary", t->summary},
+                   {"example", nlohmann::json::parse(t->example_json)}});
+  }
+  std::cout << out.dump(2) << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const auto args = parse_args(argc, argv);
+  if (!args) return 2;
+  if (args->has("--help") || args->has("-h") || args->positional.empty()) {
+    std::cout << kUsage;
+    return args->positional.empty() && !args->has("--help") && !args->has("-h") ? 2 : 0;
+  }
+  const std::string& command = args->positional[0];
+  if (command == "nodes") return cmd_nodes();
+  if (args->positional.size() < 2) {
+    std::cerr << "terrain " << command << ": needs a scene file\n" << kUsage;
+    return 2;
+  }
+  if (command == "validate") return cmd_validate(*args);
+  if (command == "sample") return cmd_sample(*args);
+  if (command == "grid") return cmd_grid(*args);
+  if (command == "render") return cmd_render(*args);
+  if (command == "program") return cmd_program(*args);
+  std::cerr << "terrain: unknown command '" << command << "'\n" << kUsage;
+  return 2;
+}
