@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <thread>
 
 #include "nodes/blend.hpp"
@@ -22,6 +23,34 @@ const NodeType* type_by_id(std::uint16_t id) {
 Box2 box_at(const float* pool) { return {{pool[0], pool[1]}, {pool[2], pool[3]}}; }
 
 NodeBounds no_weight_bounds() { return NodeBounds{}; }
+
+// Over a finite box, a primitive's ranges shrink to its value at the centre ± its Lipschitz
+// bound times the half diagonal: cheap (one sample) and it keeps local bounds local, which is
+// what makes blends of many tall features traceable.
+void tighten_with_centre(const NodeKernels& k, const float* params, const BoundsQuery& q,
+                         NodeBounds& b) {
+  if (!std::isfinite(q.box.lo.x) || !std::isfinite(q.box.hi.x) || !std::isfinite(q.box.lo.y) ||
+      !std::isfinite(q.box.hi.y)) {
+    return;
+  }
+  PointBlock centre;
+  centre.count = 1;
+  centre.spacing = q.spacing;
+  const Vec2 c = q.box.center();
+  centre.x[0] = c.x;
+  centre.y[0] = c.y;
+  centre.box = Box2::of_point(c);
+  FieldBlock out;
+  k.leaf(params, centre, out);
+  const float r = 0.5f * length(q.box.size()) * 1.0001f;
+  const float slack = 1e-4f * (1.0f + std::abs(out.f[0]));  // float rounding of the sample
+  b.elevation.lo = std::max(b.elevation.lo, out.f[0] - b.elevation_lipschitz * r - slack);
+  b.elevation.hi = std::min(b.elevation.hi, out.f[0] + b.elevation_lipschitz * r + slack);
+  b.weight.lo = std::max(b.weight.lo, out.a[0] - b.weight_lipschitz * r - 1e-6f);
+  b.weight.hi = std::min(b.weight.hi, out.a[0] + b.weight_lipschitz * r + 1e-6f);
+  b.weight.lo = std::max(b.weight.lo, 0.0f);
+  if (b.weight.lo > b.weight.hi) b.weight.lo = b.weight.hi;
+}
 
 }  // namespace
 
@@ -137,6 +166,7 @@ NodeBounds Evaluator::bounds(const BoundsQuery& query) {
     switch (ins.op) {
       case Op::leaf:
         s.bounds.push_back(k.leaf_bounds(params, q));
+        tighten_with_centre(k, params, q, s.bounds.back());
         break;
       case Op::blend_begin:
         s.blends.emplace_back();

@@ -62,12 +62,16 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
       evaluator.bounds({Box2::everywhere(), 0.0f}).elevation_lipschitz;
   float t = span.lo;
   float delta = options.initial_step;
+  float last_lambda = global_lambda;
   while (t <= span.hi && result.steps < options.max_steps) {
     ++result.steps;
     const Vec3 p = at(ray, t);
     const float spacing = options.lod_per_metre * t;
     const float h = height_above(evaluator, p, spacing);
-    if (h < options.epsilon) {
+    // A hit within ε, within half the level-of-detail spacing (the surface is not defined more
+    // finely than that), or within what float precision of t can still resolve.
+    const float tolerance = std::max({options.epsilon, 0.5f * spacing, t * 4e-7f * (1.0f + last_lambda)});
+    if (h < tolerance) {
       result.hit = true;
       result.t = t;
       result.position = p;
@@ -75,11 +79,13 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
     }
     float lambda = global_lambda;
     float limit = std::numeric_limits<float>::infinity();
+    last_lambda = lambda;
     if (options.accelerated) {
       // Local bound over the candidate segment [t, t + δ] (its horizontal footprint).
       const Vec3 q = at(ray, t + delta);
       const Box2 box = Box2::of_point({p.x, p.y}).with({q.x, q.y});
       lambda = evaluator.bounds({box, spacing}).elevation_lipschitz;
+      last_lambda = lambda;
       limit = delta;
     }
     // h_Δ'(t) ≥ u_z − |u_xy| λ: if that is non-negative the ray climbs away from the terrain.
@@ -88,7 +94,9 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
     step = std::min(step, limit);
     if (!std::isfinite(step)) break;  // moving away everywhere: no hit in the domain
     t += step;
-    delta *= 2.0f;  // §7.2 step 2.3: always try a longer segment next
+    // §7.2 step 2.3 doubles δ. Doubling the segment actually advanced (not the candidate) keeps
+    // the segment, and so its Lipschitz bound, local after steps cut short near the terrain.
+    delta = std::max(options.initial_step, 2.0f * step);
 
   }
   return result;

@@ -23,7 +23,7 @@ struct Ray {
 
 struct TraceOptions {
   bool accelerated = true;
-  float epsilon = 0.01f;        ///< metres above the surface that count as a hit
+  float epsilon = 0.01f;        ///< metres above the surface that count as a hit (at least)
   int max_steps = 1 << 16;
   float initial_step = 10.0f;   ///< δ of the accelerated algorithm, metres
   float lod_per_metre = 0.0f;   ///< sample spacing grows by this much per metre of distance
