@@ -17,10 +17,28 @@ inline std::uint32_t u32(int v) { return static_cast<std::uint32_t>(v); }
 inline float fade(float t) { return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f); }
 inline float fade_slope(float t) { return 30.0f * t * t * (t * (t - 2.0f) + 1.0f); }
 
-// Eight unit gradients at multiples of 45°, picked by three hash bits.
+// Eight unit gradients at multiples of 45°, chosen by four hash bits: bit 2 picks a diagonal or an
+// axis, bit 3 which axis, bits 0 and 1 the signs. Written as selects so batch loops vectorise.
 constexpr float kDiag = 0.70710678f;
-constexpr float kGrad2[8][2] = {{1, 0},  {kDiag, kDiag},   {0, 1},  {-kDiag, kDiag},
-                                {-1, 0}, {-kDiag, -kDiag}, {0, -1}, {kDiag, -kDiag}};
+[[gnu::always_inline]] inline void grad8(std::uint32_t h, float& gx, float& gy) {
+  // Pure arithmetic on the bits (no selects): GCC vectorises it.
+  const float sx = static_cast<float>(1 - static_cast<int>((h & 1u) << 1));
+  const float sy = static_cast<float>(1 - static_cast<int>(h & 2u));
+  const float axis = static_cast<float>((h >> 2) & 1u);     // 0: diagonal, 1: axis-aligned
+  const float x_axis = static_cast<float>((h >> 3) & 1u);   // which axis
+  const float diagonal = 1.0f - axis;
+  gx = sx * (diagonal * kDiag + axis * x_axis);
+  gy = sy * (diagonal * kDiag + axis * (1.0f - x_axis));
+}
+
+// The 2D lattice hash: rows first, then columns, so a cell's four corners cost six hashes.
+[[gnu::always_inline]] inline std::uint32_t row_hash(int j, std::uint32_t seed) {
+  return hash(static_cast<std::uint32_t>(j) ^ seed);
+}
+[[gnu::always_inline]] inline std::uint32_t corner_hash(int i, std::uint32_t row) {
+  return hash(static_cast<std::uint32_t>(i) ^ row);
+}
+
 // Twelve gradients towards the edge midpoints of a cube, normalised.
 constexpr float kEdge = 0.70710678f;
 constexpr float kGrad3[16][3] = {
@@ -29,9 +47,6 @@ constexpr float kGrad3[16][3] = {
     {0, kEdge, kEdge},  {0, -kEdge, kEdge},  {0, kEdge, -kEdge},  {0, -kEdge, -kEdge},
     {kEdge, kEdge, 0},  {-kEdge, kEdge, 0},  {0, -kEdge, kEdge},  {0, -kEdge, -kEdge}};
 
-inline const float* grad2(int i, int j, std::uint32_t seed) {
-  return kGrad2[hash(u32(i), u32(j), seed) & 7u];
-}
 inline const float* grad3(int i, int j, int k, std::uint32_t seed) {
   return kGrad3[hash(u32(i), u32(j), u32(k), seed) & 15u];
 }
@@ -46,30 +61,78 @@ constexpr float kSimplexScale3 = 11.9f;   // 1 / (4 · max_r (0.6 − r²)⁴ r)
 
 }  // namespace
 
-Sample2 gradient2(float x, float y, std::uint32_t seed) {
+namespace {
+
+// Gradient noise at one point; always inlined so batch loops vectorise around it.
+[[gnu::always_inline]] inline void gradient2_kernel(float x, float y, std::uint32_t seed, float& value,
+                                                    float& dx, float& dy) {
   const int i = fast_floor(x), j = fast_floor(y);
   const float fx = x - static_cast<float>(i), fy = y - static_cast<float>(j);
-  const float* g00 = grad2(i, j, seed);
-  const float* g10 = grad2(i + 1, j, seed);
-  const float* g01 = grad2(i, j + 1, seed);
-  const float* g11 = grad2(i + 1, j + 1, seed);
-  const float n00 = g00[0] * fx + g00[1] * fy;
-  const float n10 = g10[0] * (fx - 1.0f) + g10[1] * fy;
-  const float n01 = g01[0] * fx + g01[1] * (fy - 1.0f);
-  const float n11 = g11[0] * (fx - 1.0f) + g11[1] * (fy - 1.0f);
+  const std::uint32_t row0 = row_hash(j, seed), row1 = row_hash(j + 1, seed);
+  float g00x, g00y, g10x, g10y, g01x, g01y, g11x, g11y;
+  grad8(corner_hash(i, row0), g00x, g00y);
+  grad8(corner_hash(i + 1, row0), g10x, g10y);
+  grad8(corner_hash(i, row1), g01x, g01y);
+  grad8(corner_hash(i + 1, row1), g11x, g11y);
+  const float n00 = g00x * fx + g00y * fy;
+  const float n10 = g10x * (fx - 1.0f) + g10y * fy;
+  const float n01 = g01x * fx + g01y * (fy - 1.0f);
+  const float n11 = g11x * (fx - 1.0f) + g11y * (fy - 1.0f);
   const float u = fade(fx), v = fade(fy);
   const float du = fade_slope(fx), dv = fade_slope(fy);
   const float nx0 = n00 + u * (n10 - n00);
   const float nx1 = n01 + u * (n11 - n01);
-  const float value = nx0 + v * (nx1 - nx0);
   // ∂/∂x: the fade's slope across the corner values plus the interpolated gradients.
-  const float gx0 = g00[0] + u * (g10[0] - g00[0]);
-  const float gx1 = g01[0] + u * (g11[0] - g01[0]);
-  const float gy0 = g00[1] + u * (g10[1] - g00[1]);
-  const float gy1 = g01[1] + u * (g11[1] - g01[1]);
-  const float dx = gx0 + v * (gx1 - gx0) + du * ((n10 - n00) + v * ((n11 - n01) - (n10 - n00)));
-  const float dy = gy0 + v * (gy1 - gy0) + dv * (nx1 - nx0);
-  return {value * kGradientScale2, dx * kGradientScale2, dy * kGradientScale2};
+  const float gx0 = g00x + u * (g10x - g00x);
+  const float gx1 = g01x + u * (g11x - g01x);
+  const float gy0 = g00y + u * (g10y - g00y);
+  const float gy1 = g01y + u * (g11y - g01y);
+  value = (nx0 + v * (nx1 - nx0)) * kGradientScale2;
+  dx = (gx0 + v * (gx1 - gx0) + du * ((n10 - n00) + v * ((n11 - n01) - (n10 - n00)))) *
+       kGradientScale2;
+  dy = (gy0 + v * (gy1 - gy0) + dv * (nx1 - nx0)) * kGradientScale2;
+}
+
+// Simplex noise at one point (branch-free: corners outside the kernel add zero).
+[[gnu::always_inline]] inline void simplex2_kernel(float x, float y, std::uint32_t seed, float& value,
+                                                   float& dx, float& dy) {
+  constexpr float kSkew = 0.36602540f;    // (√3 − 1) / 2
+  constexpr float kUnskew = 0.21132487f;  // (3 − √3) / 6
+  const float s = (x + y) * kSkew;
+  const int i = fast_floor(x + s), j = fast_floor(y + s);
+  const float t = static_cast<float>(i + j) * kUnskew;
+  const float x0 = x - (static_cast<float>(i) - t), y0 = y - (static_cast<float>(j) - t);
+  const int i1 = static_cast<int>(x0 > y0), j1 = 1 - i1;
+  const float x1 = x0 - static_cast<float>(i1) + kUnskew, y1 = y0 - static_cast<float>(j1) + kUnskew;
+  const float x2 = x0 - 1.0f + 2.0f * kUnskew, y2 = y0 - 1.0f + 2.0f * kUnskew;
+  const std::uint32_t row0 = row_hash(j, seed), row1 = row_hash(j + 1, seed);
+  const std::uint32_t row_mid = row0 ^ ((row0 ^ row1) & (0u - static_cast<std::uint32_t>(j1)));
+  float v = 0.0f, gx = 0.0f, gy = 0.0f;
+  auto corner = [&](float cx, float cy, std::uint32_t h) {
+    const float a = std::max(0.5f - (cx * cx + cy * cy), 0.0f);
+    float g0, g1;
+    grad8(h, g0, g1);
+    const float n = g0 * cx + g1 * cy;
+    const float a2 = a * a, a4 = a2 * a2;
+    v += a4 * n;
+    // ∇(a⁴ n) = a⁴ g − 8 a³ n d
+    gx += a4 * g0 - 8.0f * a2 * a * n * cx;
+    gy += a4 * g1 - 8.0f * a2 * a * n * cy;
+  };
+  corner(x0, y0, corner_hash(i, row0));
+  corner(x1, y1, corner_hash(i + i1, row_mid));
+  corner(x2, y2, corner_hash(i + 1, row1));
+  value = v * kSimplexScale2;
+  dx = gx * kSimplexScale2;
+  dy = gy * kSimplexScale2;
+}
+
+}  // namespace
+
+Sample2 gradient2(float x, float y, std::uint32_t seed) {
+  Sample2 s;
+  gradient2_kernel(x, y, seed, s.value, s.dx, s.dy);
+  return s;
 }
 
 Sample3 gradient3(float x, float y, float z, std::uint32_t seed) {
@@ -100,30 +163,9 @@ Sample3 gradient3(float x, float y, float z, std::uint32_t seed) {
 }
 
 Sample2 simplex2(float x, float y, std::uint32_t seed) {
-  constexpr float kSkew = 0.36602540f;    // (√3 − 1) / 2
-  constexpr float kUnskew = 0.21132487f;  // (3 − √3) / 6
-  const float s = (x + y) * kSkew;
-  const int i = fast_floor(x + s), j = fast_floor(y + s);
-  const float t = static_cast<float>(i + j) * kUnskew;
-  const float x0 = x - (static_cast<float>(i) - t), y0 = y - (static_cast<float>(j) - t);
-  const int i1 = x0 > y0 ? 1 : 0, j1 = 1 - i1;
-  const float cx[3] = {x0, x0 - static_cast<float>(i1) + kUnskew, x0 - 1.0f + 2.0f * kUnskew};
-  const float cy[3] = {y0, y0 - static_cast<float>(j1) + kUnskew, y0 - 1.0f + 2.0f * kUnskew};
-  const int ci[3] = {i, i + i1, i + 1}, cj[3] = {j, j + j1, j + 1};
-  Sample2 out;
-  for (int c = 0; c < 3; ++c) {
-    const float r2 = cx[c] * cx[c] + cy[c] * cy[c];
-    const float a = 0.5f - r2;
-    if (a <= 0.0f) continue;
-    const float* g = grad2(ci[c], cj[c], seed);
-    const float n = g[0] * cx[c] + g[1] * cy[c];
-    const float a2 = a * a, a4 = a2 * a2;
-    out.value += a4 * n;
-    // ∇(a⁴ n) = a⁴ g − 8 a³ n d
-    out.dx += a4 * g[0] - 8.0f * a2 * a * n * cx[c];
-    out.dy += a4 * g[1] - 8.0f * a2 * a * n * cy[c];
-  }
-  return {out.value * kSimplexScale2, out.dx * kSimplexScale2, out.dy * kSimplexScale2};
+  Sample2 s;
+  simplex2_kernel(x, y, seed, s.value, s.dx, s.dy);
+  return s;
 }
 
 Sample3 simplex3(float x, float y, float z, std::uint32_t seed) {
@@ -193,6 +235,8 @@ float visible_octaves(const FractalParams& p, float spacing) {
 
 namespace {
 
+constexpr std::size_t kMaxBatch = 64;
+
 Sample2 basis2(Basis b, float x, float y, std::uint32_t seed) {
   return b == Basis::simplex ? simplex2(x, y, seed) : gradient2(x, y, seed);
 }
@@ -204,6 +248,11 @@ int octave_count(const FractalParams& p, float octaves) {
 }  // namespace
 
 Sample2 fractal2(const FractalParams& p, Vec2 point, float octaves) {
+  if (p.kind == Fractal::fbm || p.kind == Fractal::ridged) {
+    Sample2 s;
+    fractal2(p, &point.x, &point.y, 1, octaves, &s.value, &s.dx, &s.dy);
+    return s;
+  }
   const float gain = std::pow(p.lacunarity, -p.hurst);
   const int count = octave_count(p, octaves);
   float frequency = p.frequency, amplitude = p.amplitude;
@@ -286,8 +335,119 @@ Sample2 fractal2(const FractalParams& p, Vec2 point, float octaves) {
   return sum;
 }
 
+namespace {
+
+// Per-octave constants, computed once per call with the same multiplications in every path.
+struct Octaves {
+  int count = 0;
+  float frequency[24];
+  float amplitude[24];  // includes the LoD octave weight
+  std::uint32_t seed[24];
+};
+
+Octaves octave_table(const FractalParams& p, float octaves) {
+  Octaves t;
+  t.count = octave_count(p, octaves);
+  const float gain = std::pow(p.lacunarity, -p.hurst);
+  float frequency = p.frequency, amplitude = p.amplitude;
+  for (int i = 0; i < t.count; ++i) {
+    t.frequency[i] = frequency;
+    t.amplitude[i] = amplitude * octave_weight(i, octaves);
+    t.seed[i] = hash(p.seed, static_cast<std::uint32_t>(i));
+    frequency *= p.lacunarity;
+    amplitude *= gain;
+  }
+  return t;
+}
+
+// Octave-outer, point-inner loops over structure-of-arrays data: the inner loops have no
+// branches and vectorise; the AVX2 clone adds 8-wide integer multiplies for the hash. Results
+// are identical across clones (no FMA contraction, same operation order).
+template <bool kSimplex>
+__attribute__((target_clones("avx2", "default"))) void fbm_batch(
+    const Octaves& t, const float* x, const float* y, std::size_t n, float* value, float* dx,
+    float* dy) {
+  for (std::size_t k = 0; k < n; ++k) value[k] = dx[k] = dy[k] = 0.0f;
+  for (int o = 0; o < t.count; ++o) {
+    const float f = t.frequency[o], a = t.amplitude[o];
+    const std::uint32_t seed = t.seed[o];
+    for (std::size_t k = 0; k < n; ++k) {
+      float v, gx, gy;
+      if constexpr (kSimplex) {
+        simplex2_kernel(x[k] * f, y[k] * f, seed, v, gx, gy);
+      } else {
+        gradient2_kernel(x[k] * f, y[k] * f, seed, v, gx, gy);
+      }
+      value[k] += a * v;
+      dx[k] += a * f * gx;
+      dy[k] += a * f * gy;
+    }
+  }
+}
+
+// Musgrave's ridged multifractal: signal = (offset − |η|)², each octave weighted by
+// w = clamp(previous signal · gain, 0, 1) (w = 1 for the first); gradients by the chain rule.
+template <bool kSimplex>
+__attribute__((target_clones("avx2", "default"))) void ridged_batch(
+    const Octaves& t, float offset, float ridge_gain, const float* x, const float* y,
+    std::size_t n, float* value, float* dx, float* dy) {
+  float weight[kMaxBatch], wx[kMaxBatch], wy[kMaxBatch];
+  for (std::size_t k = 0; k < n; ++k) {
+    value[k] = dx[k] = dy[k] = 0.0f;
+    weight[k] = 1.0f;
+    wx[k] = wy[k] = 0.0f;
+  }
+  for (int o = 0; o < t.count; ++o) {
+    const float f = t.frequency[o], a = t.amplitude[o];
+    const std::uint32_t seed = t.seed[o];
+    for (std::size_t k = 0; k < n; ++k) {
+      float v, gx, gy;
+      if constexpr (kSimplex) {
+        simplex2_kernel(x[k] * f, y[k] * f, seed, v, gx, gy);
+      } else {
+        gradient2_kernel(x[k] * f, y[k] * f, seed, v, gx, gy);
+      }
+      const float sign = std::copysign(1.0f, v);
+      const float base = offset - sign * v;
+      const float signal = base * base;
+      const float sx = -2.0f * base * sign * f * gx;
+      const float sy = -2.0f * base * sign * f * gy;
+      value[k] += a * signal * weight[k];
+      dx[k] += a * (sx * weight[k] + signal * wx[k]);
+      dy[k] += a * (sy * weight[k] + signal * wy[k]);
+      const float raw = signal * ridge_gain;
+      const float inside = static_cast<float>((raw > 0.0f) & (raw < 1.0f));
+      weight[k] = std::min(std::max(raw, 0.0f), 1.0f);
+      wx[k] = inside * (sx * ridge_gain);
+      wy[k] = inside * (sy * ridge_gain);
+    }
+  }
+}
+
+}  // namespace
+
 void fractal2(const FractalParams& p, const float* x, const float* y, std::size_t n, float octaves,
               float* value, float* dx, float* dy) {
+  const bool simplex = p.basis == Basis::simplex;
+  if (p.kind == Fractal::fbm || p.kind == Fractal::ridged) {
+    const Octaves t = octave_table(p, octaves);
+    for (std::size_t start = 0; start < n; start += kMaxBatch) {
+      const std::size_t m = std::min(kMaxBatch, n - start);
+      const float* xs = x + start;
+      const float* ys = y + start;
+      float* v = value + start;
+      float* gx = dx + start;
+      float* gy = dy + start;
+      if (p.kind == Fractal::fbm) {
+        simplex ? fbm_batch<true>(t, xs, ys, m, v, gx, gy) : fbm_batch<false>(t, xs, ys, m, v, gx, gy);
+      } else if (simplex) {
+        ridged_batch<true>(t, p.ridge_offset, p.ridge_gain, xs, ys, m, v, gx, gy);
+      } else {
+        ridged_batch<false>(t, p.ridge_offset, p.ridge_gain, xs, ys, m, v, gx, gy);
+      }
+    }
+    return;
+  }
   for (std::size_t k = 0; k < n; ++k) {
     const Sample2 s = fractal2(p, {x[k], y[k]}, octaves);
     value[k] = s.value;

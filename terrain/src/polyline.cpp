@@ -63,7 +63,8 @@ double segments_needed(const std::vector<P3>& c, double tol) {
   return std::max(1.0, std::ceil(std::sqrt(m / (8.0 * tol))));
 }
 
-PolylineSample eval_impl(const float* packed, Vec2 p, float cutoff, bool cull) {
+PolylineSample eval_impl(const float* packed, Vec2 p, float cutoff, bool cull,
+                         const std::uint16_t* candidates = nullptr, int candidate_count = 0) {
   const int segments = static_cast<int>(packed[0]);
   const int chunks = static_cast<int>(packed[1]);
   const float* vtx = packed + 2;                // (x, y, z, s) per vertex
@@ -75,7 +76,9 @@ PolylineSample eval_impl(const float* packed, Vec2 p, float cutoff, bool cull) {
   float best2 = kFloatInf;
   int best = -1;
   float best_h = 0.0f;
-  for (int c = 0; c < chunks; ++c) {
+  const int visits = candidates != nullptr ? candidate_count : chunks;
+  for (int visit = 0; visit < visits; ++visit) {
+    const int c = candidates != nullptr ? candidates[visit] : visit;
     if (cull) {
       const float* b = box + 4 * c;
       const float dx = std::max(std::max(b[0] - p.x, 0.0f), p.x - b[2]);
@@ -312,6 +315,37 @@ void Polyline::pack(std::vector<float>& pool) const {
 
 PolylineSample polyline_eval(const float* packed, Vec2 p, float cutoff) {
   return eval_impl(packed, p, cutoff, true);
+}
+
+int polyline_candidates(const float* packed, const Box2& box, std::uint16_t* out, int capacity) {
+  const int segments = static_cast<int>(packed[0]);
+  const int chunks = static_cast<int>(packed[1]);
+  const float* vtx = packed + 2;
+  const float* boxes = vtx + 4 * (segments + 1);
+  // Every point of `box` lies within `reach` of the first vertex of some chunk, so its nearest
+  // segment is in a chunk whose box is no farther than that from `box`.
+  float reach2 = kFloatInf;
+  for (int c = 0; c < chunks; ++c) {
+    const float* v = vtx + 4 * (c * Polyline::kChunkSegments);
+    const float dx = std::max(std::abs(v[0] - box.lo.x), std::abs(v[0] - box.hi.x));
+    const float dy = std::max(std::abs(v[1] - box.lo.y), std::abs(v[1] - box.hi.y));
+    reach2 = std::min(reach2, dx * dx + dy * dy);
+  }
+  int count = 0;
+  for (int c = 0; c < chunks; ++c) {
+    const float* b = boxes + 4 * c;
+    const float dx = std::max({b[0] - box.hi.x, 0.0f, box.lo.x - b[2]});
+    const float dy = std::max({b[1] - box.hi.y, 0.0f, box.lo.y - b[3]});
+    if (dx * dx + dy * dy > reach2 * 1.0001f) continue;
+    if (count == capacity) return -1;
+    out[count++] = static_cast<std::uint16_t>(c);
+  }
+  return count;
+}
+
+PolylineSample polyline_eval_candidates(const float* packed, Vec2 p, const std::uint16_t* chunks,
+                                        int count) {
+  return eval_impl(packed, p, kFloatInf, true, chunks, count);
 }
 
 PolylineSample polyline_eval_brute_force(const float* packed, Vec2 p) {

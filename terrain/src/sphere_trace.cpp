@@ -158,8 +158,9 @@ Camera default_camera(const Program& program, const Box2& area, int width, int h
   Camera cam;
   cam.width = width;
   cam.height = height;
-  cam.position = {c.x - 0.55f * span, c.y - 0.75f * span, z.hi + 0.45f * span};
-  cam.target = {c.x, c.y, 0.5f * (z.lo + z.hi)};
+  // From the south-south-west, low enough that relief reads against the sky.
+  cam.position = {c.x - 0.35f * span, c.y - 0.80f * span, z.hi + 0.18f * span};
+  cam.target = {c.x, c.y + 0.1f * span, z.lo + 0.3f * (z.hi - z.lo)};
   return cam;
 }
 

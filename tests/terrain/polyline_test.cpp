@@ -166,6 +166,30 @@ TEST(Polyline, ChunkCullingGivesTheSameAnswersAsBruteForce) {
   }
 }
 
+TEST(Polyline, BlockCandidatesGiveTheSameAnswersAsAFullSearch) {
+  const Polyline line = make(spiral(16 * 6));
+  std::vector<float> packed;
+  line.pack(packed);
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> c(-120.0f, 120.0f), size(0.1f, 40.0f);
+  for (int b = 0; b < 300; ++b) {
+    const Vec2 lo{c(rng), c(rng)};
+    const Box2 box{lo, lo + Vec2{size(rng), size(rng)}};
+    std::uint16_t candidates[256];
+    const int count = polyline_candidates(packed.data(), box, candidates, 256);
+    ASSERT_GE(count, 1);
+    std::uniform_real_distribution<float> ux(box.lo.x, box.hi.x), uy(box.lo.y, box.hi.y);
+    for (int i = 0; i < 30; ++i) {
+      const Vec2 p{ux(rng), uy(rng)};
+      const PolylineSample a = polyline_eval_candidates(packed.data(), p, candidates, count);
+      const PolylineSample e = polyline_eval(packed.data(), p);
+      ASSERT_EQ(a.segment, e.segment);
+      ASSERT_EQ(a.signed_distance, e.signed_distance);
+      ASSERT_EQ(a.s, e.s);
+    }
+  }
+}
+
 TEST(Polyline, PointsBeyondTheCutoffAreReportedOutside) {
   const Polyline line = make(spiral(16 * 3));
   std::mt19937 rng(13);

@@ -109,6 +109,13 @@ class Polyline {
 /// box is farther than the best distance so far or than `cutoff` are skipped.
 PolylineSample polyline_eval(const float* packed, Vec2 p,
                              float cutoff = std::numeric_limits<float>::infinity());
+/// The chunks (in increasing order) that can hold the nearest segment of any point of `box`:
+/// evaluating a block of points against only these gives the same answers as polyline_eval.
+/// Returns the count, or −1 when more than `capacity` would be needed.
+int polyline_candidates(const float* packed, const Box2& box, std::uint16_t* out, int capacity);
+/// Nearest-point query visiting only the given chunks (from polyline_candidates).
+PolylineSample polyline_eval_candidates(const float* packed, Vec2 p, const std::uint16_t* chunks,
+                                        int count);
 /// Same query without chunk culling.
 PolylineSample polyline_eval_brute_force(const float* packed, Vec2 p);
 

@@ -151,8 +151,14 @@ void curve_leaf(const float* params, const PointBlock& points, FieldBlock& out) 
   const std::uint32_t count = as_count(params[kProfiles]);
   const float* polyline = params + as_count(params[kPolyline]);
   const float* table = params + kTable;
+  // Chunks that can be nearest for some point of the block: found once, used by every point.
+  std::uint16_t candidates[256];
+  const int candidate_count = polyline_candidates(polyline, points.box, candidates, 256);
   for (int i = 0; i < points.count; ++i) {
-    const PolylineSample q = polyline_eval(polyline, {points.x[i], points.y[i]});
+    const Vec2 p{points.x[i], points.y[i]};
+    const PolylineSample q = candidate_count >= 0
+                                 ? polyline_eval_candidates(polyline, p, candidates, candidate_count)
+                                 : polyline_eval(polyline, p);
     // Profile pair around the fraction u = s / L, interpolated with a C1 smoothstep.
     const float u = length > 0.0f ? q.s / length : 0.0f;
     std::uint32_t k = 0;
