@@ -80,7 +80,7 @@ class Compiler {
     }
     switch (node.type->category) {
       case NodeCategory::primitive:
-        push(Op::leaf, node, params_of(node));
+        program_.code[push(Op::leaf, node, params_of(node))].skip = cullable ? 1u : 0u;
         grow(+1);
         break;
       case NodeCategory::blend: {

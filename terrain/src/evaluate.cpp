@@ -89,9 +89,12 @@ void Evaluator::evaluate(const PointBlock& block, FieldBlock& out) {
     const Instruction& ins = code[pc];
     const float* params = pool + ins.params;
     switch (ins.op) {
-      case Op::leaf:
-        s.types[pc]->kernels.leaf(params, *frame, fields[sp++]);
+      case Op::leaf: {
+        const NodeKernels& k = s.types[pc]->kernels;
+        const bool weighted_only = ins.skip != 0 && k.leaf_where_weighted != nullptr;
+        (weighted_only ? k.leaf_where_weighted : k.leaf)(params, *frame, fields[sp++]);
         break;
+      }
       case Op::blend_begin:
         blend_clear(fields[sp++], n);
         break;

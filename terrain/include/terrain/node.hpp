@@ -40,6 +40,10 @@ struct NodeKernels {
   // primitive
   void (*leaf)(const float* params, const PointBlock& points, FieldBlock& out) = nullptr;
   NodeBounds (*leaf_bounds)(const float* params, const BoundsQuery& query) = nullptr;
+  /// Optional: the same where the parent ignores f wherever α = 0 (blend children, the B side of
+  /// replace/add), so f may be left arbitrary (finite) there and its work skipped.
+  void (*leaf_where_weighted)(const float* params, const PointBlock& points,
+                              FieldBlock& out) = nullptr;
   // binary: `out` may alias `a`
   void (*combine)(const float* params, const PointBlock& points, const FieldBlock& a,
                   const FieldBlock& b, FieldBlock& out) = nullptr;

@@ -32,7 +32,8 @@ struct Instruction {
   Op op = Op::leaf;
   std::uint16_t type = 0;    ///< node type id (NodeType::id) for leaf/combine/warp/blend
   std::uint32_t params = 0;  ///< offset of the node's parameters (or the cull/group box) in pool
-  std::uint32_t skip = 0;    ///< cull/group: instructions to jump over when the box is missed
+  std::uint32_t skip = 0;    ///< cull/group: instructions to jump over when the box is missed;
+                             ///< leaf: 1 when the parent ignores f wherever α = 0
   std::uint32_t node = 0;    ///< index of the source node (diagnostics)
 };
 static_assert(sizeof(Instruction) == 16);

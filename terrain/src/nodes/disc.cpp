@@ -84,6 +84,42 @@ void disc_leaf(const float* params, const PointBlock& points, FieldBlock& out) {
   for (int i = 0; i < n; ++i) out.f[i] += params[kElevation];
 }
 
+// Only points inside the disc get noise: elsewhere α = 0 and the parent ignores f.
+void disc_leaf_where_weighted(const float* params, const PointBlock& points, FieldBlock& out) {
+  const Vec2 c{params[kCenterX], params[kCenterY]};
+  const float radius = params[kRadius];
+  PointBlock inside;
+  int map[kBlockSize];
+  inside.count = 0;
+  inside.spacing = points.spacing;
+  for (int i = 0; i < points.count; ++i) {
+    const float dx = points.x[i] - c.x, dy = points.y[i] - c.y;
+    if (dx * dx + dy * dy < radius * radius) {
+      inside.x[inside.count] = points.x[i];
+      inside.y[inside.count] = points.y[i];
+      map[inside.count++] = i;
+    }
+    out.f[i] = params[kElevation];
+    out.a[i] = out.fx[i] = out.fy[i] = out.ax[i] = out.ay[i] = 0.0f;
+  }
+  if (inside.count == 0) return;
+  if (inside.count == points.count) {
+    disc_leaf(params, points, out);
+    return;
+  }
+  FieldBlock packed;
+  disc_leaf(params, inside, packed);
+  for (int k = 0; k < inside.count; ++k) {
+    const int i = map[k];
+    out.f[i] = packed.f[k];
+    out.a[i] = packed.a[k];
+    out.fx[i] = packed.fx[k];
+    out.fy[i] = packed.fy[k];
+    out.ax[i] = packed.ax[k];
+    out.ay[i] = packed.ay[k];
+  }
+}
+
 NodeBounds disc_bounds(const float* params, const BoundsQuery& query) {
   const Vec2 c{params[kCenterX], params[kCenterY]};
   const float radius = params[kRadius];
@@ -116,7 +152,9 @@ const NodeType& disc_node_type() {
       .summary = "circular feature: plateau (no noise), hills (fbm), mountains (ridged), or "
                  "multifractal terrain; octaves fade in with the level of detail",
       .parse = parse_disc,
-      .kernels = {.leaf = disc_leaf, .leaf_bounds = disc_bounds},
+      .kernels = {.leaf = disc_leaf,
+                  .leaf_bounds = disc_bounds,
+                  .leaf_where_weighted = disc_leaf_where_weighted},
       .example_json = R"({"type": "disc", "center": [0, 0], "radius": 2000, "elevation": 300,
  "noise": {"kind": "ridged", "amplitude": 400, "wavelength": 1500, "octaves": 8, "seed": 7}})",
   };
