@@ -317,14 +317,15 @@ PolylineSample polyline_eval(const float* packed, Vec2 p, float cutoff) {
   return eval_impl(packed, p, cutoff, true);
 }
 
-int polyline_candidates(const float* packed, const Box2& box, std::uint16_t* out, int capacity) {
+int polyline_candidates(const float* packed, const Box2& box, std::uint16_t* out, int capacity,
+                        float cutoff) {
   const int segments = static_cast<int>(packed[0]);
   const int chunks = static_cast<int>(packed[1]);
   const float* vtx = packed + 2;
   const float* boxes = vtx + 4 * (segments + 1);
   // Every point of `box` lies within `reach` of the first vertex of some chunk, so its nearest
   // segment is in a chunk whose box is no farther than that from `box`.
-  float reach2 = kFloatInf;
+  float reach2 = cutoff * cutoff;
   for (int c = 0; c < chunks; ++c) {
     const float* v = vtx + 4 * (c * Polyline::kChunkSegments);
     const float dx = std::max(std::abs(v[0] - box.lo.x), std::abs(v[0] - box.hi.x));
@@ -344,8 +345,8 @@ int polyline_candidates(const float* packed, const Box2& box, std::uint16_t* out
 }
 
 PolylineSample polyline_eval_candidates(const float* packed, Vec2 p, const std::uint16_t* chunks,
-                                        int count) {
-  return eval_impl(packed, p, kFloatInf, true, chunks, count);
+                                        int count, float cutoff) {
+  return eval_impl(packed, p, cutoff, true, chunks, count);
 }
 
 PolylineSample polyline_eval_brute_force(const float* packed, Vec2 p) {

@@ -112,10 +112,14 @@ PolylineSample polyline_eval(const float* packed, Vec2 p,
 /// The chunks (in increasing order) that can hold the nearest segment of any point of `box`:
 /// evaluating a block of points against only these gives the same answers as polyline_eval.
 /// Returns the count, or −1 when more than `capacity` would be needed.
-int polyline_candidates(const float* packed, const Box2& box, std::uint16_t* out, int capacity);
+/// With a finite `cutoff`, chunks farther than it from the box are left out too (and the count
+/// may be 0: no point of the box is within the cut-off).
+int polyline_candidates(const float* packed, const Box2& box, std::uint16_t* out, int capacity,
+                        float cutoff = std::numeric_limits<float>::infinity());
 /// Nearest-point query visiting only the given chunks (from polyline_candidates).
 PolylineSample polyline_eval_candidates(const float* packed, Vec2 p, const std::uint16_t* chunks,
-                                        int count);
+                                        int count,
+                                        float cutoff = std::numeric_limits<float>::infinity());
 /// Same query without chunk culling.
 PolylineSample polyline_eval_brute_force(const float* packed, Vec2 p);
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 #include "nodes/profile_spec.hpp"
 #include "terrain/polyline.hpp"
@@ -145,7 +146,9 @@ Result<NodeParams> parse_curve(FieldReader& reader, ParseContext&) {
   return out;
 }
 
-void curve_leaf(const float* params, const PointBlock& points, FieldBlock& out) {
+// `cutoff`: points farther from the skeleton get α = 0 and an arbitrary f (only for parents that
+// ignore f where α = 0); infinity evaluates every point exactly.
+void curve_field(const float* params, const PointBlock& points, FieldBlock& out, float cutoff) {
   const float falloff = params[kFalloff];
   const float length = params[kLength];
   const std::uint32_t count = as_count(params[kProfiles]);
@@ -153,12 +156,17 @@ void curve_leaf(const float* params, const PointBlock& points, FieldBlock& out) 
   const float* table = params + kTable;
   // Chunks that can be nearest for some point of the block: found once, used by every point.
   std::uint16_t candidates[256];
-  const int candidate_count = polyline_candidates(polyline, points.box, candidates, 256);
+  const int candidate_count = polyline_candidates(polyline, points.box, candidates, 256, cutoff);
   for (int i = 0; i < points.count; ++i) {
     const Vec2 p{points.x[i], points.y[i]};
-    const PolylineSample q = candidate_count >= 0
-                                 ? polyline_eval_candidates(polyline, p, candidates, candidate_count)
-                                 : polyline_eval(polyline, p);
+    const PolylineSample q =
+        candidate_count >= 0
+            ? polyline_eval_candidates(polyline, p, candidates, candidate_count, cutoff)
+            : polyline_eval(polyline, p, cutoff);
+    if (!q.found) {
+      out.f[i] = out.fx[i] = out.fy[i] = out.a[i] = out.ax[i] = out.ay[i] = 0.0f;
+      continue;
+    }
     // Profile pair around the fraction u = s / L, interpolated with a C1 smoothstep.
     const float u = length > 0.0f ? q.s / length : 0.0f;
     std::uint32_t k = 0;
@@ -194,6 +202,15 @@ void curve_leaf(const float* params, const PointBlock& points, FieldBlock& out) 
   }
 }
 
+void curve_leaf(const float* params, const PointBlock& points, FieldBlock& out) {
+  curve_field(params, points, out, std::numeric_limits<float>::infinity());
+}
+
+void curve_leaf_where_weighted(const float* params, const PointBlock& points, FieldBlock& out) {
+  // Beyond core + fall-off the weight is zero.
+  curve_field(params, points, out, (params[kCore] + params[kFalloff]) * 1.001f);
+}
+
 NodeBounds curve_bounds(const float* params, const BoundsQuery& query) {
   const float falloff = params[kFalloff];
   const float* polyline = params + as_count(params[kPolyline]);
@@ -226,7 +243,9 @@ const NodeType& curve_node_type() {
       .max_children = 0,
       .summary = "a river or road along segments and Bézier pieces with cross-section profiles",
       .parse = parse_curve,
-      .kernels = {.leaf = curve_leaf, .leaf_bounds = curve_bounds},
+      .kernels = {.leaf = curve_leaf,
+                  .leaf_bounds = curve_bounds,
+                  .leaf_where_weighted = curve_leaf_where_weighted},
       .example_json = R"({"type": "curve", "falloff": 120,
  "pieces": [[[-1500, -200, 110], [-500, 300, 100], [0, -100, 95]],
             [[0, -100, 95], [600, -500, 90], [900, 400, 88], [1500, 100, 80]]],
