@@ -122,6 +122,8 @@ def winding_road():
             "profiles": [{"preset": "road", "width": 12, "carriageway": 7, "embankment": 14, "crown": 0.1}]}
     write("winding-road", {
         "name": "A winding road levelled into a hundred hills (Génevaux Figs. 1, 22)", "seed": 22,
+        # Where the hills leave gaps, the blend falls back to this level: the mean ground height.
+        "base_elevation": 150,
         "extent": {"min": [-3600, -3600], "max": [3600, 3600]},
         "root": {"type": "replace", "children": [{"type": "blend", "children": discs + helpers}, road]}})
 

@@ -46,6 +46,46 @@ Vec3 normalise(Vec3 v) {
 
 }  // namespace
 
+LipschitzGrid::LipschitzGrid(Evaluator& evaluator, const Box2& area, int cells)
+    : area_(area), cells_(cells), spacings_{0.0f, 1.0f, 4.0f, 16.0f, 64.0f} {
+  global_ = evaluator.bounds({Box2::everywhere(), 0.0f}).elevation_lipschitz;
+  const Vec2 size = area.size();
+  for (float spacing : spacings_) {
+    std::vector<float>& level = levels_.emplace_back(static_cast<std::size_t>(cells * cells));
+    for (int j = 0; j < cells; ++j) {
+      for (int i = 0; i < cells; ++i) {
+        const Vec2 lo{area.lo.x + size.x * static_cast<float>(i) / static_cast<float>(cells),
+                      area.lo.y + size.y * static_cast<float>(j) / static_cast<float>(cells)};
+        const Vec2 hi{area.lo.x + size.x * static_cast<float>(i + 1) / static_cast<float>(cells),
+                      area.lo.y + size.y * static_cast<float>(j + 1) / static_cast<float>(cells)};
+        level[static_cast<std::size_t>(j * cells + i)] =
+            evaluator.bounds({Box2{lo, hi}.expanded(1e-3f * std::max(size.x, size.y)), spacing})
+                .elevation_lipschitz;
+      }
+    }
+  }
+}
+
+float LipschitzGrid::bound(const Box2& box, float spacing) const {
+  if (!area_.intersects(box)) return 0.0f;  // outside the traced area nothing is hit
+  std::size_t level = 0;
+  while (level + 1 < spacings_.size() && spacings_[level + 1] <= spacing) ++level;
+  const Vec2 size = area_.size();
+  auto cell = [&](float v, float lo, float extent) {
+    const float c = (v - lo) / extent * static_cast<float>(cells_);
+    return std::clamp(static_cast<int>(std::floor(c)), 0, cells_ - 1);
+  };
+  const int i0 = cell(box.lo.x, area_.lo.x, size.x), i1 = cell(box.hi.x, area_.lo.x, size.x);
+  const int j0 = cell(box.lo.y, area_.lo.y, size.y), j1 = cell(box.hi.y, area_.lo.y, size.y);
+  if ((i1 - i0 + 1) * (j1 - j0 + 1) > cells_ * cells_ / 4) return global_;
+  float worst = 0.0f;
+  const std::vector<float>& grid = levels_[level];
+  for (int j = j0; j <= j1; ++j) {
+    for (int i = i0; i <= i1; ++i) worst = std::max(worst, grid[static_cast<std::size_t>(j * cells_ + i)]);
+  }
+  return worst;
+}
+
 TraceDomain trace_domain(const Program& program, const Box2& area) {
   Interval z = program.bounds.elevation.hull(Interval::point(program.base_elevation));
   return {area, {z.lo - 1.0f, z.hi + 1.0f}};
@@ -84,7 +124,8 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
       // Local bound over the candidate segment [t, t + δ] (its horizontal footprint).
       const Vec3 q = at(ray, t + delta);
       const Box2 box = Box2::of_point({p.x, p.y}).with({q.x, q.y});
-      lambda = evaluator.bounds({box, spacing}).elevation_lipschitz;
+      lambda = options.bounds != nullptr ? options.bounds->bound(box, spacing)
+                                         : evaluator.bounds({box, spacing}).elevation_lipschitz;
       last_lambda = lambda;
       limit = delta;
     }
@@ -218,6 +259,9 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
   }
   trace.t_max = std::min(trace.t_max, 4.0f * span + 1e4f);
 
+  Evaluator grid_evaluator(program);
+  const LipschitzGrid bounds(grid_evaluator, area);
+  if (trace.accelerated && trace.bounds == nullptr) trace.bounds = &bounds;
   auto worker = [&] {
     Evaluator evaluator(program);
     for (int y = next_row.fetch_add(1); y < camera.height; y = next_row.fetch_add(1)) {

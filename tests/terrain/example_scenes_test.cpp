@@ -77,14 +77,21 @@ TEST_P(ExampleScene, AcceleratedSphereTracingFindsEveryDenseHit) {
   const TraceDomain domain = trace_domain(program, area);
   TraceOptions options;
   options.lod_per_metre = pixel_footprint(camera);
+  Evaluator grid_evaluator(program);
+  const LipschitzGrid grid(grid_evaluator, area, 32);
+  TraceOptions with_grid = options;
+  with_grid.bounds = &grid;
   for (int y = 0; y < camera.height; y += 60) {
     for (int x = 0; x < camera.width; x += 60) {
       const Ray ray = camera.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
       const TraceResult dense = march_dense(e, domain, ray, 1.0f, 1e6f, options.lod_per_metre);
       const TraceResult fast = sphere_trace(e, domain, ray, options);
+      const TraceResult gridded = sphere_trace(e, domain, ray, with_grid);
       if (dense.hit) {
         ASSERT_TRUE(fast.hit) << "pixel " << x << ", " << y;
         EXPECT_LE(fast.t, dense.t + 0.05f);
+        ASSERT_TRUE(gridded.hit) << "pixel " << x << ", " << y << " (Lipschitz grid)";
+        EXPECT_LE(gridded.t, dense.t + 0.05f);
       }
     }
   }

@@ -21,6 +21,23 @@ struct Ray {
   Vec3 direction;  ///< unit length
 };
 
+/// Local Lipschitz bounds precomputed on a grid of cells over the traced area, at a few levels
+/// of detail: a lookup replaces a walk of the program at every step (the paper's "standard space
+/// partitioning", §7.2). Bounds are maxima over the cells a segment touches, so they stay safe.
+class LipschitzGrid {
+ public:
+  LipschitzGrid(Evaluator& evaluator, const Box2& area, int cells = 64);
+  /// A bound of |∇f| over `box` at sample spacing `spacing` (or coarser detail).
+  float bound(const Box2& box, float spacing) const;
+
+ private:
+  Box2 area_;
+  int cells_;
+  float global_ = 0.0f;
+  std::vector<float> spacings_;             // ascending; level k is valid for spacing ≥ it
+  std::vector<std::vector<float>> levels_;  // cells_ × cells_ bounds per level
+};
+
 struct TraceOptions {
   bool accelerated = true;
   float epsilon = 0.01f;        ///< metres above the surface that count as a hit (at least)
@@ -28,6 +45,7 @@ struct TraceOptions {
   float initial_step = 10.0f;   ///< δ of the accelerated algorithm, metres
   float lod_per_metre = 0.0f;   ///< sample spacing grows by this much per metre of distance
   float t_max = 1e7f;
+  const LipschitzGrid* bounds = nullptr;  ///< precomputed local bounds (else the program is walked)
 };
 
 struct TraceResult {
