@@ -1,555 +1,1243 @@
+// Integer-hashed gradient and simplex noise with exact derivatives, and the fractal sums over them.
+// docs/noise.md gives every formula; this file is the reference implementation of those formulas.
+//
+// Determinism: every hot-path operation is an IEEE add, multiply, compare or select (no libm, no
+// division), the project builds with -ffp-contract=off, and the batch and single-point paths run
+// the same always-inlined per-octave step functions in the same order (they differ only in how a
+// lattice gradient is fetched: bit operations in vector loops, a table built from those at compile
+// time in scalar code), so the AVX2 clone, the baseline clone and the scalar path agree bit for
+// bit.
 #include "terrain/noise.hpp"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+
+#define TERRAIN_NOISE_INLINE [[gnu::always_inline]] inline
 
 namespace terrain::noise {
 namespace {
 
-inline int fast_floor(float x) {
-  const int i = static_cast<int>(x);
-  return i - static_cast<int>(x < static_cast<float>(i));
+// ---------------------------------------------------------------------------------------------
+// Constants. docs/noise.md derives the scales and bounds; tests/terrain/noise_test.cpp certifies
+// the numerical ones with an interval branch-and-bound.
+
+// Lattice coordinates are clamped to ±2^26 before the float→int conversion so it never overflows
+// (beyond 2^24 a float has no fractional part left, so nothing is lost).
+constexpr float kCoordLimit = 67108864.0f;
+
+// Gradient noise with unit gradients satisfies |n| ≤ √N / 2, so 2/√N maps it into [−1, 1]. Both
+// floats are rounded below the real value.
+constexpr float kGradientScale2 = 1.41421354f;  // √2
+constexpr float kGradientScale3 = 1.15470052f;  // 2/√3
+// Simplex noise: 1 / max Σ (½ − |d|²)⁴|d|, rounded down (certified maxima 0.0100802 and
+// 0.00928906).
+constexpr float kSimplexScale2 = 99.0f;
+constexpr float kSimplexScale3 = 107.5f;
+
+// Proven bounds of |∇| at unit frequency (certified values 3.0759, 3.5543, 7.3333, 7.7915, plus
+// about 3% margin).
+constexpr float kLipschitzGradient2 = 3.17f;
+constexpr float kLipschitzGradient3 = 3.66f;
+constexpr float kLipschitzSimplex2 = 7.55f;
+constexpr float kLipschitzSimplex3 = 8.03f;
+
+// Sixteen 2D gradient directions at odd multiples of π/16.
+constexpr float kCos1 = 0.980785280f;  // cos(π/16)
+constexpr float kSin1 = 0.195090322f;  // sin(π/16)
+constexpr float kCos3 = 0.831469612f;  // cos(3π/16)
+constexpr float kSin3 = 0.555570233f;  // sin(3π/16)
+// The twelve 3D gradients (cube edge midpoints) have components ±1/√2 (rounded down) or 0.
+constexpr float kEdge = 0.707106769f;
+
+// Simplex skew factors.
+constexpr float kSkew2 = 0.366025404f;    // F2 = (√3 − 1)/2
+constexpr float kUnskew2 = 0.211324865f;  // G2 = (3 − √3)/6
+constexpr float kSkew3 = 0.333333343f;    // F3 = 1/3
+constexpr float kUnskew3 = 0.166666672f;  // G3 = 1/6
+// The unskew n·G (n = i + j [+ k]) is split as n·H/2048 + n·(G − H/2048) with integer H: the
+// first part is computed exactly in integers (its whole cells fold into the cell index), so the
+// corner offsets x − i + n·G keep their precision far from the origin (error ≈ |n|·6e-12 instead
+// of |n|·1e-8). Exact for |n|·H < 2^31, i.e. coordinates up to about ±2·10^6.
+constexpr std::uint32_t kUnskew2Head = 433u;     // 2048·G2 ≈ 432.79
+constexpr float kUnskew2Tail = -1.00915844e-4f;  // G2 − 433/2048
+constexpr std::uint32_t kUnskew3Head = 341u;     // 2048·G3 ≈ 341.33
+constexpr float kUnskew3Tail = 1.62760422e-4f;   // 1/6 − 341/2048
+
+// Rotation of the warped fractal: sin and cos of 2πx on x ∈ [−½, ½] as
+//   S(x) = x (¼ − x²) P(x²),   C(x) = (¼ − x²)² R(x²) − 1,
+// exact zeros/extrema at ±½ so the periodic extension is C¹. Least-squares fits, |error| < 3e-7.
+constexpr float kSinP[6] = {2.513274193e+01f,  -6.483582306e+01f, 6.707662964e+01f,
+                            -3.849588013e+01f, 1.404966354e+01f,  -3.161602020e+00f};
+constexpr float kCosR[6] = {3.200000000e+01f,  -5.982733154e+01f, 4.841119003e+01f,
+                            -2.277238083e+01f, 7.045487404e+00f,  -1.393159151e+00f};
+constexpr float kInvTau = 0.159154943f;   // 1/(2π)
+constexpr float kTurnLimit = 4194304.0f;  // 2^22 turns: the reduction stays exact below this
+// Bounds of |(C, S)| and |(C', S')|/(2π) over all inputs (1 + approximation error, rounded up).
+constexpr double kRotationNorm = 1.0001;
+
+constexpr int kMaxOctaves = 24;
+
+// ---------------------------------------------------------------------------------------------
+// Scalar building blocks. All are branch-free (selects only) so loops around them vectorise.
+
+// Selects on floats are done on their bit patterns. Under the default -ftrapping-math GCC sinks
+// float arithmetic that follows a float select into the branches and then refuses to if-convert
+// them ("control flow in loop"); integer selects and masks vectorise.
+TERRAIN_NOISE_INLINE constexpr std::uint32_t bits_of(float x) {
+  return std::bit_cast<std::uint32_t>(x);
+}
+TERRAIN_NOISE_INLINE constexpr float from_bits(std::uint32_t b) {
+  return std::bit_cast<float>(b);
+}
+// max(x, 0) (−0 and negative values give +0).
+TERRAIN_NOISE_INLINE float positive_part(float x) {
+  const std::uint32_t b = bits_of(x);
+  return from_bits(b & ~static_cast<std::uint32_t>(static_cast<std::int32_t>(b) >> 31));
+}
+// |x| clamped to `limit` ≥ 0 (NaN becomes ±limit), sign kept.
+TERRAIN_NOISE_INLINE float clamp_magnitude(float x, float limit) {
+  const std::uint32_t b = bits_of(x);
+  return from_bits((b & 0x80000000u) | std::min(b & 0x7fffffffu, bits_of(limit)));
+}
+// x clamped to [0, 1] (non-negative floats order like their bit patterns).
+TERRAIN_NOISE_INLINE float clamp01(float x) {
+  return from_bits(std::min(bits_of(positive_part(x)), bits_of(1.0f)));
+}
+// 1.0f where bit is 1, 0.0f where it is 0.
+TERRAIN_NOISE_INLINE float unit_if(std::uint32_t bit) {
+  return from_bits((0u - bit) & bits_of(1.0f));
+}
+TERRAIN_NOISE_INLINE float clamp_coord(float x) {
+  return clamp_magnitude(x, kCoordLimit);
 }
 
-inline std::uint32_t u32(int v) { return static_cast<std::uint32_t>(v); }
-
-// Quintic fade s(t) = 6t⁵ − 15t⁴ + 10t³ and s'(t) = 30t²(t − 1)², max s' = 1.875.
-inline float fade(float t) { return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f); }
-inline float fade_slope(float t) { return 30.0f * t * t * (t * (t - 2.0f) + 1.0f); }
-
-// Eight unit gradients at multiples of 45°, chosen by four hash bits: bit 2 picks a diagonal or an
-// axis, bit 3 which axis, bits 0 and 1 the signs. Written as selects so batch loops vectorise.
-constexpr float kDiag = 0.70710678f;
-[[gnu::always_inline]] inline void grad8(std::uint32_t h, float& gx, float& gy) {
-  // Pure arithmetic on the bits (no selects): GCC vectorises it.
-  const float sx = static_cast<float>(1 - static_cast<int>((h & 1u) << 1));
-  const float sy = static_cast<float>(1 - static_cast<int>(h & 2u));
-  const float axis = static_cast<float>((h >> 2) & 1u);     // 0: diagonal, 1: axis-aligned
-  const float x_axis = static_cast<float>((h >> 3) & 1u);   // which axis
-  const float diagonal = 1.0f - axis;
-  gx = sx * (diagonal * kDiag + axis * x_axis);
-  gy = sy * (diagonal * kDiag + axis * (1.0f - x_axis));
+// floor() without libm: truncate, then step down for negative non-integers.
+TERRAIN_NOISE_INLINE std::int32_t floor_to_int(float x) {
+  const auto i = static_cast<std::int32_t>(x);
+  return i - static_cast<std::int32_t>(x < static_cast<float>(i));
 }
 
-// The 2D lattice hash: rows first, then columns, so a cell's four corners cost six hashes.
-[[gnu::always_inline]] inline std::uint32_t row_hash(int j, std::uint32_t seed) {
-  return hash(static_cast<std::uint32_t>(j) ^ seed);
+TERRAIN_NOISE_INLINE float fade(float t) {
+  return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f);
 }
-[[gnu::always_inline]] inline std::uint32_t corner_hash(int i, std::uint32_t row) {
-  return hash(static_cast<std::uint32_t>(i) ^ row);
-}
-
-// Twelve gradients towards the edge midpoints of a cube, normalised.
-constexpr float kEdge = 0.70710678f;
-constexpr float kGrad3[16][3] = {
-    {kEdge, kEdge, 0},  {-kEdge, kEdge, 0},  {kEdge, -kEdge, 0},  {-kEdge, -kEdge, 0},
-    {kEdge, 0, kEdge},  {-kEdge, 0, kEdge},  {kEdge, 0, -kEdge},  {-kEdge, 0, -kEdge},
-    {0, kEdge, kEdge},  {0, -kEdge, kEdge},  {0, kEdge, -kEdge},  {0, -kEdge, -kEdge},
-    {kEdge, kEdge, 0},  {-kEdge, kEdge, 0},  {0, -kEdge, kEdge},  {0, -kEdge, -kEdge}};
-
-inline const float* grad3(int i, int j, int k, std::uint32_t seed) {
-  return kGrad3[hash(u32(i), u32(j), u32(k), seed) & 15u];
+TERRAIN_NOISE_INLINE float fade_slope(float t) {
+  return 30.0f * t * t * (t * (t - 2.0f) + 1.0f);
 }
 
-// Scale factors making the documented ranges hold (docs/noise.md derives them):
-// gradient noise with unit gradients stays within ±√(N)/2, so ×2/√N maps it to [−1, 1];
-// simplex contributions are bounded per corner, summed over N+1 corners.
-constexpr float kGradientScale2 = 1.41421356f;
-constexpr float kGradientScale3 = 1.15470054f;
-constexpr float kSimplexScale2 = 36.1f;   // 1 / (3 · max_r (½ − r²)⁴ r) rounded down
-constexpr float kSimplexScale3 = 11.9f;   // 1 / (4 · max_r (0.6 − r²)⁴ r) rounded down
+TERRAIN_NOISE_INLINE std::uint32_t u32(std::int32_t v) {
+  return static_cast<std::uint32_t>(v);
+}
 
-}  // namespace
+// Gradient of a 2D lattice point from the top four bits of its hash: bit 28 picks the angle pair
+// (π/16 or 3π/16), bit 29 swaps the components, bits 30 and 31 are the signs.
+TERRAIN_NOISE_INLINE constexpr void gradient_bits2(std::uint32_t h, float& gx, float& gy) {
+  const std::uint32_t wide = 0u - ((h >> 28) & 1u);
+  const std::uint32_t swap = 0u - ((h >> 29) & 1u);
+  const std::uint32_t a = bits_of(kCos1) ^ ((bits_of(kCos1) ^ bits_of(kCos3)) & wide);
+  const std::uint32_t b = bits_of(kSin1) ^ ((bits_of(kSin1) ^ bits_of(kSin3)) & wide);
+  const std::uint32_t exchange = (a ^ b) & swap;
+  gx = from_bits((a ^ exchange) ^ ((h << 1) & 0x80000000u));
+  gy = from_bits((b ^ exchange) ^ (h & 0x80000000u));
+}
 
-namespace {
+// Gradient of a 3D lattice point: index ⌊12·(h>>16)/2^16⌋ in 0..11; index>>2 picks the zero
+// component (z, y, x), bits 0 and 1 the signs of the other two.
+TERRAIN_NOISE_INLINE constexpr void gradient_bits3(std::uint32_t h, float& gx, float& gy,
+                                                   float& gz) {
+  const std::uint32_t index = ((h >> 16) * 12u) >> 16;
+  const std::uint32_t zero = index >> 2;
+  const std::uint32_t s1 = bits_of(kEdge) | (index << 31);
+  const std::uint32_t s2 = bits_of(kEdge) | ((index & 2u) << 30);
+  // All-ones masks for zero == 0 and zero == 2 (zero ≤ 2, so (v − 1) >> 31 tests v == 0).
+  const std::uint32_t z0 = 0u - ((zero - 1u) >> 31);
+  const std::uint32_t z2 = 0u - (((zero ^ 2u) - 1u) >> 31);
+  gx = from_bits(s1 & ~z2);
+  gy = from_bits((s2 & z0) | (s1 & z2));
+  gz = from_bits(s2 & ~z0);
+}
 
-// Gradient noise at one point; always inlined so batch loops vectorise around it.
-[[gnu::always_inline]] inline void gradient2_kernel(float x, float y, std::uint32_t seed, float& value,
-                                                    float& dx, float& dy) {
-  const int i = fast_floor(x), j = fast_floor(y);
-  const float fx = x - static_cast<float>(i), fy = y - static_cast<float>(j);
-  const std::uint32_t row0 = row_hash(j, seed), row1 = row_hash(j + 1, seed);
+// The same gradients as tables, built at compile time from the functions above (so the entries
+// are the very same floats). Scalar code looks them up (two loads instead of a dozen bit
+// operations); vectorised loops use the bit form, since a table lookup would need a gather.
+struct Gradient2Table {
+  float g[16][2];
+};
+struct Gradient3Table {
+  float g[12][3];
+};
+constexpr Gradient2Table kGradient2Table = [] {
+  Gradient2Table t{};
+  for (std::uint32_t b = 0; b < 16; ++b) gradient_bits2(b << 28, t.g[b][0], t.g[b][1]);
+  return t;
+}();
+constexpr Gradient3Table kGradient3Table = [] {
+  Gradient3Table t{};
+  // Index i comes from any h with ((h >> 16)·12) >> 16 = i, e.g. h = ⌈i·2^16/12⌉ << 16.
+  for (std::uint32_t i = 0; i < 12; ++i) {
+    gradient_bits3(((i * 65536u + 11u) / 12u) << 16, t.g[i][0], t.g[i][1], t.g[i][2]);
+  }
+  return t;
+}();
+
+// kTable selects the lookup (scalar paths) or the bit form (batch loops); same results.
+template <bool kTable>
+TERRAIN_NOISE_INLINE void gradient_of2(std::uint32_t h, float& gx, float& gy) {
+  if constexpr (kTable) {
+    const float* g = kGradient2Table.g[h >> 28];
+    gx = g[0];
+    gy = g[1];
+  } else {
+    gradient_bits2(h, gx, gy);
+  }
+}
+
+template <bool kTable>
+TERRAIN_NOISE_INLINE void gradient_of3(std::uint32_t h, float& gx, float& gy, float& gz) {
+  if constexpr (kTable) {
+    const float* g = kGradient3Table.g[((h >> 16) * 12u) >> 16];
+    gx = g[0];
+    gy = g[1];
+    gz = g[2];
+  } else {
+    gradient_bits3(h, gx, gy, gz);
+  }
+}
+
+// Per-seed lattice: the hash key, and a sub-cell offset in [0, 1)^3 added to every coordinate so
+// that lattices of different octaves do not share their zero points.
+struct Lattice {
+  std::uint32_t key = 0;
+  float ox = 0.0f;
+  float oy = 0.0f;
+  float oz = 0.0f;
+};
+
+Lattice lattice_of(std::uint32_t seed) {
+  constexpr float kUnit = 1.0f / 65536.0f;
+  const std::uint32_t key = hash(seed ^ 0xa511e9b3u);
+  const std::uint32_t h = hash(key ^ 0x68e31da4u);
+  const std::uint32_t h2 = hash(h);
+  return {key, static_cast<float>(h & 0xffffu) * kUnit, static_cast<float>(h >> 16) * kUnit,
+          static_cast<float>(h2 & 0xffffu) * kUnit};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Single-octave kernels on lattice coordinates (offset already added).
+
+template <bool kTable>
+TERRAIN_NOISE_INLINE Sample2 gradient2_kernel(float x, float y, std::uint32_t key) {
+  x = clamp_coord(x);
+  y = clamp_coord(y);
+  const std::int32_t ix = floor_to_int(x);
+  const std::int32_t iy = floor_to_int(y);
+  const float fx = x - static_cast<float>(ix);
+  const float fy = y - static_cast<float>(iy);
+  const std::uint32_t ux = u32(ix);
+  const std::uint32_t uy = u32(iy);
+  const std::uint32_t row0 = hash(uy + key);
+  const std::uint32_t row1 = hash(uy + 1u + key);
   float g00x, g00y, g10x, g10y, g01x, g01y, g11x, g11y;
-  grad8(corner_hash(i, row0), g00x, g00y);
-  grad8(corner_hash(i + 1, row0), g10x, g10y);
-  grad8(corner_hash(i, row1), g01x, g01y);
-  grad8(corner_hash(i + 1, row1), g11x, g11y);
+  gradient_of2<kTable>(hash(ux + row0), g00x, g00y);
+  gradient_of2<kTable>(hash(ux + 1u + row0), g10x, g10y);
+  gradient_of2<kTable>(hash(ux + row1), g01x, g01y);
+  gradient_of2<kTable>(hash(ux + 1u + row1), g11x, g11y);
+  const float fx1 = fx - 1.0f;
+  const float fy1 = fy - 1.0f;
   const float n00 = g00x * fx + g00y * fy;
-  const float n10 = g10x * (fx - 1.0f) + g10y * fy;
-  const float n01 = g01x * fx + g01y * (fy - 1.0f);
-  const float n11 = g11x * (fx - 1.0f) + g11y * (fy - 1.0f);
-  const float u = fade(fx), v = fade(fy);
-  const float du = fade_slope(fx), dv = fade_slope(fy);
-  const float nx0 = n00 + u * (n10 - n00);
-  const float nx1 = n01 + u * (n11 - n01);
-  // ∂/∂x: the fade's slope across the corner values plus the interpolated gradients.
-  const float gx0 = g00x + u * (g10x - g00x);
-  const float gx1 = g01x + u * (g11x - g01x);
-  const float gy0 = g00y + u * (g10y - g00y);
-  const float gy1 = g01y + u * (g11y - g01y);
-  value = (nx0 + v * (nx1 - nx0)) * kGradientScale2;
-  dx = (gx0 + v * (gx1 - gx0) + du * ((n10 - n00) + v * ((n11 - n01) - (n10 - n00)))) *
-       kGradientScale2;
-  dy = (gy0 + v * (gy1 - gy0) + dv * (nx1 - nx0)) * kGradientScale2;
+  const float n10 = g10x * fx1 + g10y * fy;
+  const float n01 = g01x * fx + g01y * fy1;
+  const float n11 = g11x * fx1 + g11y * fy1;
+  const float u = fade(fx);
+  const float v = fade(fy);
+  const float du = fade_slope(fx);
+  const float dv = fade_slope(fy);
+  // n = n00 + u k1 + v k2 + uv k3 (bilinear blend of the four corner planes).
+  const float k1 = n10 - n00;
+  const float k2 = n01 - n00;
+  const float k3 = (n00 - n10) - (n01 - n11);
+  const float uv = u * v;
+  const float value = n00 + u * k1 + v * k2 + uv * k3;
+  const float gx = g00x + u * (g10x - g00x) + v * (g01x - g00x) +
+                   uv * ((g00x - g10x) - (g01x - g11x)) + du * (k1 + v * k3);
+  const float gy = g00y + u * (g10y - g00y) + v * (g01y - g00y) +
+                   uv * ((g00y - g10y) - (g01y - g11y)) + dv * (k2 + u * k3);
+  return {kGradientScale2 * value, kGradientScale2 * gx, kGradientScale2 * gy};
 }
 
-// Simplex noise at one point (branch-free: corners outside the kernel add zero).
-[[gnu::always_inline]] inline void simplex2_kernel(float x, float y, std::uint32_t seed, float& value,
-                                                   float& dx, float& dy) {
-  constexpr float kSkew = 0.36602540f;    // (√3 − 1) / 2
-  constexpr float kUnskew = 0.21132487f;  // (3 − √3) / 6
-  const float s = (x + y) * kSkew;
-  const int i = fast_floor(x + s), j = fast_floor(y + s);
-  const float t = static_cast<float>(i + j) * kUnskew;
-  const float x0 = x - (static_cast<float>(i) - t), y0 = y - (static_cast<float>(j) - t);
-  const int i1 = static_cast<int>(x0 > y0), j1 = 1 - i1;
-  const float x1 = x0 - static_cast<float>(i1) + kUnskew, y1 = y0 - static_cast<float>(j1) + kUnskew;
-  const float x2 = x0 - 1.0f + 2.0f * kUnskew, y2 = y0 - 1.0f + 2.0f * kUnskew;
-  const std::uint32_t row0 = row_hash(j, seed), row1 = row_hash(j + 1, seed);
-  const std::uint32_t row_mid = row0 ^ ((row0 ^ row1) & (0u - static_cast<std::uint32_t>(j1)));
-  float v = 0.0f, gx = 0.0f, gy = 0.0f;
-  auto corner = [&](float cx, float cy, std::uint32_t h) {
-    const float a = std::max(0.5f - (cx * cx + cy * cy), 0.0f);
-    float g0, g1;
-    grad8(h, g0, g1);
-    const float n = g0 * cx + g1 * cy;
-    const float a2 = a * a, a4 = a2 * a2;
-    v += a4 * n;
-    // ∇(a⁴ n) = a⁴ g − 8 a³ n d
-    gx += a4 * g0 - 8.0f * a2 * a * n * cx;
-    gy += a4 * g1 - 8.0f * a2 * a * n * cy;
+// One simplex corner: (½ − |d|²)₊⁴ (g·d) and its gradient, accumulated.
+template <bool kTable>
+TERRAIN_NOISE_INLINE void simplex_corner2(float x, float y, std::uint32_t h, float& value,
+                                          float& dx, float& dy) {
+  float gx, gy;
+  gradient_of2<kTable>(h, gx, gy);
+  const float t = positive_part(0.5f - x * x - y * y);
+  const float t2 = t * t;
+  const float t4 = t2 * t2;
+  const float gd = gx * x + gy * y;
+  const float k = -8.0f * t2 * t * gd;
+  value += t4 * gd;
+  dx += t4 * gx + k * x;
+  dy += t4 * gy + k * y;
+}
+
+template <bool kTable>
+TERRAIN_NOISE_INLINE Sample2 simplex2_kernel(float x, float y, std::uint32_t key) {
+  x = clamp_coord(x);
+  y = clamp_coord(y);
+  const float s = (x + y) * kSkew2;
+  const std::int32_t i = floor_to_int(x + s);
+  const std::int32_t j = floor_to_int(y + s);
+  const std::int32_t n = i + j;
+  const std::uint32_t head = u32(n) * kUnskew2Head;
+  const std::int32_t whole = static_cast<std::int32_t>(head) >> 11;  // ⌊n·H/2048⌋
+  const float part = static_cast<float>(head & 2047u) * (1.0f / 2048.0f);
+  const float tail = static_cast<float>(n) * kUnskew2Tail;
+  const float x0 = ((x - static_cast<float>(i - whole)) + part) + tail;
+  const float y0 = ((y - static_cast<float>(j - whole)) + part) + tail;
+  // Lower triangle (x0 > y0): second corner (1, 0); upper: (0, 1).
+  const auto i1 = static_cast<std::uint32_t>(x0 > y0);
+  const float x1 = x0 - unit_if(i1) + kUnskew2;
+  const float y1 = y0 - unit_if(1u - i1) + kUnskew2;
+  const float x2 = x0 + (2.0f * kUnskew2 - 1.0f);
+  const float y2 = y0 + (2.0f * kUnskew2 - 1.0f);
+  const std::uint32_t ui = u32(i);
+  const std::uint32_t uj = u32(j);
+  const std::uint32_t row0 = hash(uj + key);
+  const std::uint32_t row1 = hash(uj + 1u + key);
+  const std::uint32_t h0 = hash(ui + row0);
+  const std::uint32_t h1 = hash(ui + i1 + (row1 ^ ((row0 ^ row1) & (0u - i1))));
+  const std::uint32_t h2 = hash(ui + 1u + row1);
+  float value = 0.0f, dx = 0.0f, dy = 0.0f;
+  simplex_corner2<kTable>(x0, y0, h0, value, dx, dy);
+  simplex_corner2<kTable>(x1, y1, h1, value, dx, dy);
+  simplex_corner2<kTable>(x2, y2, h2, value, dx, dy);
+  return {kSimplexScale2 * value, kSimplexScale2 * dx, kSimplexScale2 * dy};
+}
+
+template <bool kTable>
+TERRAIN_NOISE_INLINE Sample3 gradient3_kernel(float x, float y, float z, std::uint32_t key) {
+  x = clamp_coord(x);
+  y = clamp_coord(y);
+  z = clamp_coord(z);
+  const std::int32_t ix = floor_to_int(x);
+  const std::int32_t iy = floor_to_int(y);
+  const std::int32_t iz = floor_to_int(z);
+  const float fx = x - static_cast<float>(ix);
+  const float fy = y - static_cast<float>(iy);
+  const float fz = z - static_cast<float>(iz);
+  const std::uint32_t ux = u32(ix);
+  const std::uint32_t uy = u32(iy);
+  const std::uint32_t uz = u32(iz);
+  const std::uint32_t plane0 = hash(uz + key);
+  const std::uint32_t plane1 = hash(uz + 1u + key);
+  const std::uint32_t row00 = hash(uy + plane0);
+  const std::uint32_t row10 = hash(uy + 1u + plane0);
+  const std::uint32_t row01 = hash(uy + plane1);
+  const std::uint32_t row11 = hash(uy + 1u + plane1);
+  // Corner cXYZ has gradient gXYZ and plane value nXYZ = gXYZ · (f − corner).
+  float g000[3], g100[3], g010[3], g110[3], g001[3], g101[3], g011[3], g111[3];
+  gradient_of3<kTable>(hash(ux + row00), g000[0], g000[1], g000[2]);
+  gradient_of3<kTable>(hash(ux + 1u + row00), g100[0], g100[1], g100[2]);
+  gradient_of3<kTable>(hash(ux + row10), g010[0], g010[1], g010[2]);
+  gradient_of3<kTable>(hash(ux + 1u + row10), g110[0], g110[1], g110[2]);
+  gradient_of3<kTable>(hash(ux + row01), g001[0], g001[1], g001[2]);
+  gradient_of3<kTable>(hash(ux + 1u + row01), g101[0], g101[1], g101[2]);
+  gradient_of3<kTable>(hash(ux + row11), g011[0], g011[1], g011[2]);
+  gradient_of3<kTable>(hash(ux + 1u + row11), g111[0], g111[1], g111[2]);
+  const float fx1 = fx - 1.0f;
+  const float fy1 = fy - 1.0f;
+  const float fz1 = fz - 1.0f;
+  const float n000 = g000[0] * fx + g000[1] * fy + g000[2] * fz;
+  const float n100 = g100[0] * fx1 + g100[1] * fy + g100[2] * fz;
+  const float n010 = g010[0] * fx + g010[1] * fy1 + g010[2] * fz;
+  const float n110 = g110[0] * fx1 + g110[1] * fy1 + g110[2] * fz;
+  const float n001 = g001[0] * fx + g001[1] * fy + g001[2] * fz1;
+  const float n101 = g101[0] * fx1 + g101[1] * fy + g101[2] * fz1;
+  const float n011 = g011[0] * fx + g011[1] * fy1 + g011[2] * fz1;
+  const float n111 = g111[0] * fx1 + g111[1] * fy1 + g111[2] * fz1;
+  const float u = fade(fx);
+  const float v = fade(fy);
+  const float w = fade(fz);
+  const float du = fade_slope(fx);
+  const float dv = fade_slope(fy);
+  const float dw = fade_slope(fz);
+  // Trilinear blend n = k0 + u k1 + v k2 + w k3 + uv k4 + vw k5 + wu k6 + uvw k7; the same
+  // combinations of the corner gradients give the part of ∇n that does not come from the fades.
+  const auto blend = [](float a000, float a100, float a010, float a110, float a001, float a101,
+                        float a011, float a111, float(&k)[8]) {
+    k[0] = a000;
+    k[1] = a100 - a000;
+    k[2] = a010 - a000;
+    k[3] = a001 - a000;
+    k[4] = (a000 - a100) - (a010 - a110);
+    k[5] = (a000 - a010) - (a001 - a011);
+    k[6] = (a000 - a100) - (a001 - a101);
+    k[7] = ((a100 - a000) + (a010 - a110)) + ((a001 - a101) + (a111 - a011));
   };
-  corner(x0, y0, corner_hash(i, row0));
-  corner(x1, y1, corner_hash(i + i1, row_mid));
-  corner(x2, y2, corner_hash(i + 1, row1));
-  value = v * kSimplexScale2;
-  dx = gx * kSimplexScale2;
-  dy = gy * kSimplexScale2;
+  float kn[8], kx[8], ky[8], kz[8];
+  blend(n000, n100, n010, n110, n001, n101, n011, n111, kn);
+  blend(g000[0], g100[0], g010[0], g110[0], g001[0], g101[0], g011[0], g111[0], kx);
+  blend(g000[1], g100[1], g010[1], g110[1], g001[1], g101[1], g011[1], g111[1], ky);
+  blend(g000[2], g100[2], g010[2], g110[2], g001[2], g101[2], g011[2], g111[2], kz);
+  const float uv = u * v;
+  const float vw = v * w;
+  const float wu = w * u;
+  const float uvw = uv * w;
+  const auto mix = [&](const float(&k)[8]) {
+    return k[0] + u * k[1] + v * k[2] + w * k[3] + uv * k[4] + vw * k[5] + wu * k[6] + uvw * k[7];
+  };
+  const float value = mix(kn);
+  const float gx = mix(kx) + du * (kn[1] + v * kn[4] + w * kn[6] + vw * kn[7]);
+  const float gy = mix(ky) + dv * (kn[2] + u * kn[4] + w * kn[5] + wu * kn[7]);
+  const float gz = mix(kz) + dw * (kn[3] + v * kn[5] + u * kn[6] + uv * kn[7]);
+  return {kGradientScale3 * value, kGradientScale3 * gx, kGradientScale3 * gy,
+          kGradientScale3 * gz};
+}
+
+template <bool kTable>
+TERRAIN_NOISE_INLINE void simplex_corner3(float x, float y, float z, std::uint32_t h, float& value,
+                                          float& dx, float& dy, float& dz) {
+  float gx, gy, gz;
+  gradient_of3<kTable>(h, gx, gy, gz);
+  const float t = positive_part(0.5f - x * x - y * y - z * z);
+  const float t2 = t * t;
+  const float t4 = t2 * t2;
+  const float gd = gx * x + gy * y + gz * z;
+  const float k = -8.0f * t2 * t * gd;
+  value += t4 * gd;
+  dx += t4 * gx + k * x;
+  dy += t4 * gy + k * y;
+  dz += t4 * gz + k * z;
+}
+
+template <bool kTable>
+TERRAIN_NOISE_INLINE Sample3 simplex3_kernel(float x, float y, float z, std::uint32_t key) {
+  x = clamp_coord(x);
+  y = clamp_coord(y);
+  z = clamp_coord(z);
+  const float s = (x + y + z) * kSkew3;
+  const std::int32_t i = floor_to_int(x + s);
+  const std::int32_t j = floor_to_int(y + s);
+  const std::int32_t k = floor_to_int(z + s);
+  const std::int32_t n = i + j + k;
+  const std::uint32_t head = u32(n) * kUnskew3Head;
+  const std::int32_t whole = static_cast<std::int32_t>(head) >> 11;  // ⌊n·H/2048⌋
+  const float part = static_cast<float>(head & 2047u) * (1.0f / 2048.0f);
+  const float tail = static_cast<float>(n) * kUnskew3Tail;
+  const float x0 = ((x - static_cast<float>(i - whole)) + part) + tail;
+  const float y0 = ((y - static_cast<float>(j - whole)) + part) + tail;
+  const float z0 = ((z - static_cast<float>(k - whole)) + part) + tail;
+  // Rank of each coordinate among the three (ties broken x > y > z); the simplex steps along
+  // the largest coordinate first, then the second largest.
+  const auto cxy = static_cast<std::uint32_t>(x0 >= y0);
+  const auto cxz = static_cast<std::uint32_t>(x0 >= z0);
+  const auto cyz = static_cast<std::uint32_t>(y0 >= z0);
+  const std::uint32_t rx = cxy + cxz;
+  const std::uint32_t ry = (1u - cxy) + cyz;
+  const std::uint32_t rz = (1u - cxz) + (1u - cyz);
+  // Ranks are 0..2: rank ≥ 2 is rank >> 1, rank ≥ 1 is (rank + 1) >> 1.
+  const std::uint32_t i1 = rx >> 1;
+  const std::uint32_t j1 = ry >> 1;
+  const std::uint32_t k1 = rz >> 1;
+  const std::uint32_t i2 = (rx + 1u) >> 1;
+  const std::uint32_t j2 = (ry + 1u) >> 1;
+  const std::uint32_t k2 = (rz + 1u) >> 1;
+  const float x1 = x0 - unit_if(i1) + kUnskew3;
+  const float y1 = y0 - unit_if(j1) + kUnskew3;
+  const float z1 = z0 - unit_if(k1) + kUnskew3;
+  const float x2 = x0 - unit_if(i2) + 2.0f * kUnskew3;
+  const float y2 = y0 - unit_if(j2) + 2.0f * kUnskew3;
+  const float z2 = z0 - unit_if(k2) + 2.0f * kUnskew3;
+  const float x3 = x0 + (3.0f * kUnskew3 - 1.0f);
+  const float y3 = y0 + (3.0f * kUnskew3 - 1.0f);
+  const float z3 = z0 + (3.0f * kUnskew3 - 1.0f);
+  const std::uint32_t ui = u32(i);
+  const std::uint32_t uj = u32(j);
+  const std::uint32_t uk = u32(k);
+  const std::uint32_t plane0 = hash(uk + key);
+  const std::uint32_t plane1 = hash(uk + 1u + key);
+  const std::uint32_t h0 = hash(ui + hash(uj + plane0));
+  const std::uint32_t planes = plane0 ^ plane1;
+  const std::uint32_t h1 = hash(ui + i1 + hash(uj + j1 + (plane0 ^ (planes & (0u - k1)))));
+  const std::uint32_t h2 = hash(ui + i2 + hash(uj + j2 + (plane0 ^ (planes & (0u - k2)))));
+  const std::uint32_t h3 = hash(ui + 1u + hash(uj + 1u + plane1));
+  float value = 0.0f, dx = 0.0f, dy = 0.0f, dz = 0.0f;
+  simplex_corner3<kTable>(x0, y0, z0, h0, value, dx, dy, dz);
+  simplex_corner3<kTable>(x1, y1, z1, h1, value, dx, dy, dz);
+  simplex_corner3<kTable>(x2, y2, z2, h2, value, dx, dy, dz);
+  simplex_corner3<kTable>(x3, y3, z3, h3, value, dx, dy, dz);
+  return {kSimplexScale3 * value, kSimplexScale3 * dx, kSimplexScale3 * dy, kSimplexScale3 * dz};
+}
+
+// sin φ, cos φ and their derivatives d/dφ, from the periodic polynomials above.
+struct Rotation {
+  float sin = 0.0f;
+  float cos = 1.0f;
+  float dsin = 1.0f;
+  float dcos = 0.0f;
+};
+
+TERRAIN_NOISE_INLINE Rotation rotation_of(float phi) {
+  float x = clamp_magnitude(phi * kInvTau, kTurnLimit);
+  x = x - static_cast<float>(floor_to_int(x + 0.5f));
+  const float y = x * x;
+  const float q = 0.25f - y;
+  const float p =
+      ((((kSinP[5] * y + kSinP[4]) * y + kSinP[3]) * y + kSinP[2]) * y + kSinP[1]) * y + kSinP[0];
+  const float dp =
+      (((5.0f * kSinP[5] * y + 4.0f * kSinP[4]) * y + 3.0f * kSinP[3]) * y + 2.0f * kSinP[2]) * y +
+      kSinP[1];
+  const float r =
+      ((((kCosR[5] * y + kCosR[4]) * y + kCosR[3]) * y + kCosR[2]) * y + kCosR[1]) * y + kCosR[0];
+  const float dr =
+      (((5.0f * kCosR[5] * y + 4.0f * kCosR[4]) * y + 3.0f * kCosR[3]) * y + 2.0f * kCosR[2]) * y +
+      kCosR[1];
+  Rotation out;
+  out.sin = x * q * p;
+  out.cos = q * q * r - 1.0f;
+  // d/dx of x q(x²) P(x²) and of q(x²)² R(x²) − 1, then d/dφ = (1/2π) d/dx.
+  out.dsin = (q * p + 2.0f * y * (q * dp - p)) * kInvTau;
+  out.dcos = 2.0f * x * q * (q * dr - 2.0f * r) * kInvTau;
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fractal plans: the per-octave constants, computed once per call by repeated multiplication.
+
+struct Octave {
+  float frequency = 0.0f;  // f_i
+  float amplitude = 0.0f;  // w_i·a_i (hybrid: w_i·amplitude, the r^{-iH} factor is in `gain`)
+  float slope = 0.0f;      // amplitude · frequency (fBm gradient factor)
+  float gain = 1.0f;       // r^{-iH} (hybrid signal scale)
+  float phase = 0.0f;      // i·c2 (warped)
+  std::uint32_t key = 0;
+  float ox = 0.0f;
+  float oy = 0.0f;
+  float oz = 0.0f;
+};
+
+struct Plan {
+  Fractal kind = Fractal::fbm;
+  Basis basis = Basis::gradient;
+  int count = 0;  // octaves with a nonzero weight
+  float ridge_offset = 1.0f;
+  float ridge_gain = 2.0f;
+  float twist = 0.0f;  // c1 / (r·H): rotation per metre of accumulated height sum
+  float shift_x = 0.0f;
+  float shift_y = 0.0f;
+  std::array<Octave, kMaxOctaves> octave{};
+};
+
+int max_octaves(const FractalParams& p) {
+  return std::clamp(p.octaves, 0, kMaxOctaves);
+}
+
+// r^{-H}, computed once in double and rounded, so it is the correctly rounded float on any libm
+// with a sub-ulp double pow.
+float octave_gain(const FractalParams& p) {
+  return static_cast<float>(
+      std::pow(static_cast<double>(p.lacunarity), -static_cast<double>(p.hurst)));
+}
+
+Plan make_plan(const FractalParams& p, float octaves) {
+  Plan plan;
+  plan.kind = p.kind;
+  plan.basis = p.basis;
+  plan.ridge_offset = p.ridge_offset;
+  plan.ridge_gain = p.ridge_gain;
+  const float rh = p.lacunarity * p.hurst;
+  plan.twist = rh != 0.0f ? p.warp_c1 / rh : 0.0f;
+  plan.shift_x = p.warp_c3.x;
+  plan.shift_y = p.warp_c3.y;
+  const float gain = octave_gain(p);
+  float frequency = p.frequency;
+  float amplitude = p.amplitude;
+  float relative = 1.0f;
+  const int n = max_octaves(p);
+  for (int i = 0; i < n; ++i) {
+    const float w = octave_weight(i, octaves);
+    if (w <= 0.0f) break;
+    Octave& o = plan.octave[static_cast<std::size_t>(i)];
+    o.frequency = frequency;
+    o.amplitude = (p.kind == Fractal::hybrid ? p.amplitude : amplitude) * w;
+    o.slope = o.amplitude * frequency;
+    o.gain = relative;
+    o.phase = static_cast<float>(i) * p.warp_c2;
+    const Lattice lattice = lattice_of(hash(p.seed, static_cast<std::uint32_t>(i)));
+    o.key = lattice.key;
+    o.ox = lattice.ox;
+    o.oy = lattice.oy;
+    o.oz = lattice.oz;
+    plan.count = i + 1;
+    frequency *= p.lacunarity;
+    amplitude *= gain;
+    relative *= gain;
+  }
+  return plan;
+}
+
+// The plan of the last call on this thread: single-point callers (the sphere tracer) evaluate
+// one fractal at many points in a row, and a plan costs a pow and ~5 hashes per octave. The plan
+// is a pure function of (params, octaves), compared byte for byte (equal bytes imply equal
+// fields; padding could only cause a miss), so caching changes no result.
+const Plan& cached_plan(const FractalParams& p, float octaves) {
+  struct Cache {
+    bool valid = false;
+    FractalParams params;
+    float octaves = 0.0f;
+    Plan plan;
+  };
+  thread_local Cache cache;
+  if (!cache.valid || std::memcmp(&cache.params, &p, sizeof p) != 0 ||
+      bits_of(cache.octaves) != bits_of(octaves)) {
+    cache.params = p;
+    cache.octaves = octaves;
+    cache.plan = make_plan(p, octaves);
+    cache.valid = true;
+  }
+  return cache.plan;
+}
+
+template <Basis B, bool kTable>
+TERRAIN_NOISE_INLINE Sample2 basis2(const Octave& o, float x, float y) {
+  if constexpr (B == Basis::gradient) {
+    return gradient2_kernel<kTable>(x + o.ox, y + o.oy, o.key);
+  } else {
+    return simplex2_kernel<kTable>(x + o.ox, y + o.oy, o.key);
+  }
+}
+
+template <Basis B, bool kTable>
+TERRAIN_NOISE_INLINE Sample3 basis3(const Octave& o, float x, float y, float z) {
+  if constexpr (B == Basis::gradient) {
+    return gradient3_kernel<kTable>(x + o.ox, y + o.oy, z + o.oz, o.key);
+  } else {
+    return simplex3_kernel<kTable>(x + o.ox, y + o.oy, z + o.oz, o.key);
+  }
+}
+
+// Per-octave steps, shared by the batch loops and the single-point path. `State` holds the three
+// running values each kind carries from octave to octave (ridged/hybrid: the weight W and ∇W;
+// warped: the height sum T = Σ_{j<i} H_j and ∇T).
+struct State2 {
+  float a = 0.0f;
+  float ax = 0.0f;
+  float ay = 0.0f;
+};
+
+TERRAIN_NOISE_INLINE State2 initial_state(Fractal kind) {
+  return kind == Fractal::warped ? State2{0.0f, 0.0f, 0.0f} : State2{1.0f, 0.0f, 0.0f};
+}
+
+template <Basis B, bool kTable>
+TERRAIN_NOISE_INLINE void fbm2_step(const Octave& o, float x, float y, float& v, float& dx,
+                                    float& dy) {
+  const Sample2 n = basis2<B, kTable>(o, x * o.frequency, y * o.frequency);
+  v += o.amplitude * n.value;
+  dx += o.slope * n.dx;
+  dy += o.slope * n.dy;
+}
+
+// All ones where 0 < x < 1 (the clamp to [0, 1] passes derivatives), else zero. Pure integer
+// arithmetic on the bits: with compares GCC threads this test into the clamp's and branches.
+TERRAIN_NOISE_INLINE std::uint32_t free_mask(float x) {
+  const std::uint32_t b = bits_of(x);
+  // Bit 31 of (b − 1) is clear iff 0 < b ≤ 2^31; bit 31 of (one − 1 − b) is clear iff b < one.
+  const std::uint32_t outside = ((b - 1u) | (bits_of(1.0f) - 1u - b)) >> 31;
+  return outside - 1u;
+}
+
+// Ridged: s = (offset − |η|)², term = a·s·W, next W = clamp(gain·s, 0, 1).
+TERRAIN_NOISE_INLINE void ridged_update(const Octave& o, float offset, float ridge_gain, float n,
+                                        float nx, float ny, float& v, float& dx, float& dy,
+                                        float& w, float& wx, float& wy) {
+  // d|η|/dη = sign(η), taken from the sign bit.
+  const std::uint32_t sign = bits_of(n) & 0x80000000u;
+  const float m = offset - from_bits(bits_of(n) ^ sign);
+  const float s = m * m;
+  const float ds = from_bits(bits_of(-2.0f * m) ^ sign);
+  const float sx = ds * nx;
+  const float sy = ds * ny;
+  v += o.amplitude * (s * w);
+  dx += o.amplitude * (w * sx + s * wx);
+  dy += o.amplitude * (w * sy + s * wy);
+  const float raw = ridge_gain * s;
+  const std::uint32_t free = free_mask(raw);
+  w = clamp01(raw);
+  wx = from_bits(bits_of(ridge_gain * sx) & free);
+  wy = from_bits(bits_of(ridge_gain * sy) & free);
+}
+
+// Hybrid: s = (η + offset)·r^{-iH}, term = amplitude·W·s, next W = clamp(W·s, 0, 1).
+TERRAIN_NOISE_INLINE void hybrid_update(const Octave& o, float offset, float n, float nx, float ny,
+                                        float& v, float& dx, float& dy, float& w, float& wx,
+                                        float& wy) {
+  const float s = (n + offset) * o.gain;
+  const float sx = o.gain * nx;
+  const float sy = o.gain * ny;
+  const float px = w * sx + s * wx;
+  const float py = w * sy + s * wy;
+  const float raw = w * s;
+  v += o.amplitude * raw;
+  dx += o.amplitude * px;
+  dy += o.amplitude * py;
+  const std::uint32_t free = free_mask(raw);
+  w = clamp01(raw);
+  wx = from_bits(bits_of(px) & free);
+  wy = from_bits(bits_of(py) & free);
+}
+
+template <Basis B, bool kTable>
+TERRAIN_NOISE_INLINE void ridged2_step(const Octave& o, float offset, float ridge_gain, float x,
+                                       float y, float& v, float& dx, float& dy, State2& st) {
+  const Sample2 n = basis2<B, kTable>(o, x * o.frequency, y * o.frequency);
+  ridged_update(o, offset, ridge_gain, n.value, o.frequency * n.dx, o.frequency * n.dy, v, dx, dy,
+                st.a, st.ax, st.ay);
+}
+
+template <Basis B, bool kTable>
+TERRAIN_NOISE_INLINE void hybrid2_step(const Octave& o, float offset, float x, float y, float& v,
+                                       float& dx, float& dy, State2& st) {
+  const Sample2 n = basis2<B, kTable>(o, x * o.frequency, y * o.frequency);
+  hybrid_update(o, offset, n.value, o.frequency * n.dx, o.frequency * n.dy, v, dx, dy, st.a, st.ax,
+                st.ay);
+}
+
+// Warped: φ = twist·T + i·c2, q = f·Rot(φ)p + c3·T, H += w·a·η(q), T += H (after the octave).
+template <Basis B, bool kTable>
+TERRAIN_NOISE_INLINE void warped2_step(const Octave& o, float twist, float shift_x, float shift_y,
+                                       float x, float y, float& v, float& dx, float& dy,
+                                       State2& st) {
+  const float phi = twist * st.a + o.phase;
+  const float phix = twist * st.ax;
+  const float phiy = twist * st.ay;
+  const Rotation r = rotation_of(phi);
+  const float f = o.frequency;
+  const float qx = f * (r.cos * x - r.sin * y) + shift_x * st.a;
+  const float qy = f * (r.sin * x + r.cos * y) + shift_y * st.a;
+  // Jacobian ∂q/∂p = f·Rot(φ) + f·Rot'(φ)p ∇φᵀ + c3 ∇Tᵀ.
+  const float tx = f * (r.dcos * x - r.dsin * y);
+  const float ty = f * (r.dsin * x + r.dcos * y);
+  const float fc = f * r.cos;
+  const float fs = f * r.sin;
+  const float j11 = fc + tx * phix + shift_x * st.ax;
+  const float j12 = (tx * phiy - fs) + shift_x * st.ay;
+  const float j21 = fs + ty * phix + shift_y * st.ax;
+  const float j22 = fc + ty * phiy + shift_y * st.ay;
+  const Sample2 n = basis2<B, kTable>(o, qx, qy);
+  v += o.amplitude * n.value;
+  dx += o.amplitude * (n.dx * j11 + n.dy * j21);
+  dy += o.amplitude * (n.dx * j12 + n.dy * j22);
+  st.a += v;
+  st.ax += dx;
+  st.ay += dy;
+}
+
+template <Basis B, bool kTable>
+TERRAIN_NOISE_INLINE void fbm3_step(const Octave& o, float x, float y, float z, float& v, float& dx,
+                                    float& dy, float& dz) {
+  const Sample3 n = basis3<B, kTable>(o, x * o.frequency, y * o.frequency, z * o.frequency);
+  v += o.amplitude * n.value;
+  dx += o.slope * n.dx;
+  dy += o.slope * n.dy;
+  dz += o.slope * n.dz;
+}
+
+struct State3 {
+  float a = 1.0f;
+  float ax = 0.0f;
+  float ay = 0.0f;
+  float az = 0.0f;
+};
+
+// The 3D ridged/hybrid steps reuse the 2D updates for x and y and repeat the z lines, keeping the
+// arithmetic identical per component.
+template <Basis B, bool kTable>
+TERRAIN_NOISE_INLINE void ridged3_step(const Octave& o, float offset, float ridge_gain, float x,
+                                       float y, float z, float& v, float& dx, float& dy, float& dz,
+                                       State3& st) {
+  const Sample3 n = basis3<B, kTable>(o, x * o.frequency, y * o.frequency, z * o.frequency);
+  const float nz = o.frequency * n.dz;
+  const std::uint32_t sign = bits_of(n.value) & 0x80000000u;
+  const float m = offset - from_bits(bits_of(n.value) ^ sign);
+  const float s = m * m;
+  const float sz = from_bits(bits_of(-2.0f * m) ^ sign) * nz;
+  dz += o.amplitude * (st.a * sz + s * st.az);
+  const float next_az = from_bits(bits_of(ridge_gain * sz) & free_mask(ridge_gain * s));
+  ridged_update(o, offset, ridge_gain, n.value, o.frequency * n.dx, o.frequency * n.dy, v, dx, dy,
+                st.a, st.ax, st.ay);
+  st.az = next_az;
+}
+
+template <Basis B, bool kTable>
+TERRAIN_NOISE_INLINE void hybrid3_step(const Octave& o, float offset, float x, float y, float z,
+                                       float& v, float& dx, float& dy, float& dz, State3& st) {
+  const Sample3 n = basis3<B, kTable>(o, x * o.frequency, y * o.frequency, z * o.frequency);
+  const float s = (n.value + offset) * o.gain;
+  const float sz = o.gain * (o.frequency * n.dz);
+  const float pz = st.a * sz + s * st.az;
+  dz += o.amplitude * pz;
+  const float next_az = from_bits(bits_of(pz) & free_mask(st.a * s));
+  hybrid_update(o, offset, n.value, o.frequency * n.dx, o.frequency * n.dy, v, dx, dy, st.a, st.ax,
+                st.ay);
+  st.az = next_az;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Single-point evaluation.
+
+template <Basis B>
+Sample2 fractal2_point(const Plan& plan, float x, float y) {
+  float v = 0.0f, dx = 0.0f, dy = 0.0f;
+  State2 st = initial_state(plan.kind);
+  for (int i = 0; i < plan.count; ++i) {
+    const Octave o = plan.octave[static_cast<std::size_t>(i)];
+    switch (plan.kind) {
+      case Fractal::fbm:
+        fbm2_step<B, true>(o, x, y, v, dx, dy);
+        break;
+      case Fractal::ridged:
+        ridged2_step<B, true>(o, plan.ridge_offset, plan.ridge_gain, x, y, v, dx, dy, st);
+        break;
+      case Fractal::hybrid:
+        hybrid2_step<B, true>(o, plan.ridge_offset, x, y, v, dx, dy, st);
+        break;
+      case Fractal::warped:
+        warped2_step<B, true>(o, plan.twist, plan.shift_x, plan.shift_y, x, y, v, dx, dy, st);
+        break;
+    }
+  }
+  return {v, dx, dy};
+}
+
+template <Basis B>
+Sample3 fractal3_point(const Plan& plan, float x, float y, float z) {
+  float v = 0.0f, dx = 0.0f, dy = 0.0f, dz = 0.0f;
+  State3 st;
+  for (int i = 0; i < plan.count; ++i) {
+    const Octave o = plan.octave[static_cast<std::size_t>(i)];
+    switch (plan.kind) {
+      case Fractal::ridged:
+        ridged3_step<B, true>(o, plan.ridge_offset, plan.ridge_gain, x, y, z, v, dx, dy, dz, st);
+        break;
+      case Fractal::hybrid:
+        hybrid3_step<B, true>(o, plan.ridge_offset, x, y, z, v, dx, dy, dz, st);
+        break;
+      case Fractal::fbm:
+      case Fractal::warped:  // no 3D warp: planets use plain fBm for this kind
+        fbm3_step<B, true>(o, x, y, z, v, dx, dy, dz);
+        break;
+    }
+  }
+  return {v, dx, dy, dz};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Batch evaluation: points are processed in fixed-size chunks (the last one copied and padded with
+// zeros), and for each octave a branch-free loop runs over the chunk, accumulating into local
+// arrays. The constant trip count and the local outputs let GCC vectorise the loops without alias
+// checks or epilogues, even at -O2.
+
+constexpr std::size_t kChunk = 128;
+
+template <Basis B>
+TERRAIN_NOISE_INLINE void chunk2(const Plan& plan, std::size_t count, const float* x,
+                                 const float* y, float* v, float* dx, float* dy, float* sa,
+                                 float* sx, float* sy) {
+  for (std::size_t k = 0; k < count; ++k) {
+    v[k] = 0.0f;
+    dx[k] = 0.0f;
+    dy[k] = 0.0f;
+  }
+  if (plan.kind != Fractal::fbm) {
+    const State2 init = initial_state(plan.kind);
+    for (std::size_t k = 0; k < count; ++k) {
+      sa[k] = init.a;
+      sx[k] = init.ax;
+      sy[k] = init.ay;
+    }
+  }
+  const float offset = plan.ridge_offset;
+  const float ridge_gain = plan.ridge_gain;
+  const float twist = plan.twist;
+  const float shift_x = plan.shift_x;
+  const float shift_y = plan.shift_y;
+  for (int i = 0; i < plan.count; ++i) {
+    const Octave o = plan.octave[static_cast<std::size_t>(i)];
+    switch (plan.kind) {
+      case Fractal::fbm:
+        for (std::size_t k = 0; k < count; ++k)
+          fbm2_step<B, false>(o, x[k], y[k], v[k], dx[k], dy[k]);
+        break;
+      case Fractal::ridged:
+        for (std::size_t k = 0; k < count; ++k) {
+          State2 st{sa[k], sx[k], sy[k]};
+          ridged2_step<B, false>(o, offset, ridge_gain, x[k], y[k], v[k], dx[k], dy[k], st);
+          sa[k] = st.a;
+          sx[k] = st.ax;
+          sy[k] = st.ay;
+        }
+        break;
+      case Fractal::hybrid:
+        for (std::size_t k = 0; k < count; ++k) {
+          State2 st{sa[k], sx[k], sy[k]};
+          hybrid2_step<B, false>(o, offset, x[k], y[k], v[k], dx[k], dy[k], st);
+          sa[k] = st.a;
+          sx[k] = st.ax;
+          sy[k] = st.ay;
+        }
+        break;
+      case Fractal::warped:
+        for (std::size_t k = 0; k < count; ++k) {
+          State2 st{sa[k], sx[k], sy[k]};
+          warped2_step<B, false>(o, twist, shift_x, shift_y, x[k], y[k], v[k], dx[k], dy[k], st);
+          sa[k] = st.a;
+          sx[k] = st.ax;
+          sy[k] = st.ay;
+        }
+        break;
+    }
+  }
+}
+
+[[gnu::target_clones("avx2", "default")]] void fractal2_batch(const Plan& plan, const float* x,
+                                                              const float* y, std::size_t n,
+                                                              float* value, float* dx, float* dy) {
+  alignas(32) float cx[kChunk], cy[kChunk], cv[kChunk], cdx[kChunk], cdy[kChunk];
+  alignas(32) float sa[kChunk], sx[kChunk], sy[kChunk];
+  for (std::size_t base = 0; base < n; base += kChunk) {
+    const std::size_t m = std::min(kChunk, n - base);
+    const float* px = x + base;
+    const float* py = y + base;
+    // Short calls (node kernels pass blocks of ≤ 64 points, fewer after culling) run only as far
+    // as the vector width needs: a partial chunk is padded with zeros to a multiple of 8 lanes.
+    const std::size_t count = (m + 7) & ~std::size_t{7};
+    if (m < count) {
+      std::fill(cx, cx + count, 0.0f);
+      std::fill(cy, cy + count, 0.0f);
+      std::copy(px, px + m, cx);
+      std::copy(py, py + m, cy);
+      px = cx;
+      py = cy;
+    }
+    if (plan.basis == Basis::simplex) {
+      chunk2<Basis::simplex>(plan, count, px, py, cv, cdx, cdy, sa, sx, sy);
+    } else {
+      chunk2<Basis::gradient>(plan, count, px, py, cv, cdx, cdy, sa, sx, sy);
+    }
+    for (std::size_t k = 0; k < m; ++k) {
+      value[base + k] = cv[k];
+      dx[base + k] = cdx[k];
+      dy[base + k] = cdy[k];
+    }
+  }
+}
+
+template <Basis B>
+TERRAIN_NOISE_INLINE void chunk3(const Plan& plan, std::size_t count, const float* x,
+                                 const float* y, const float* z, float* v, float* dx, float* dy,
+                                 float* dz, float* sa, float* sx, float* sy, float* sz) {
+  for (std::size_t k = 0; k < count; ++k) {
+    v[k] = 0.0f;
+    dx[k] = 0.0f;
+    dy[k] = 0.0f;
+    dz[k] = 0.0f;
+  }
+  if (plan.kind == Fractal::ridged || plan.kind == Fractal::hybrid) {
+    for (std::size_t k = 0; k < count; ++k) {
+      sa[k] = 1.0f;
+      sx[k] = 0.0f;
+      sy[k] = 0.0f;
+      sz[k] = 0.0f;
+    }
+  }
+  const float offset = plan.ridge_offset;
+  const float ridge_gain = plan.ridge_gain;
+  for (int i = 0; i < plan.count; ++i) {
+    const Octave o = plan.octave[static_cast<std::size_t>(i)];
+    switch (plan.kind) {
+      case Fractal::ridged:
+        for (std::size_t k = 0; k < count; ++k) {
+          State3 st{sa[k], sx[k], sy[k], sz[k]};
+          ridged3_step<B, false>(o, offset, ridge_gain, x[k], y[k], z[k], v[k], dx[k], dy[k], dz[k],
+                                 st);
+          sa[k] = st.a;
+          sx[k] = st.ax;
+          sy[k] = st.ay;
+          sz[k] = st.az;
+        }
+        break;
+      case Fractal::hybrid:
+        for (std::size_t k = 0; k < count; ++k) {
+          State3 st{sa[k], sx[k], sy[k], sz[k]};
+          hybrid3_step<B, false>(o, offset, x[k], y[k], z[k], v[k], dx[k], dy[k], dz[k], st);
+          sa[k] = st.a;
+          sx[k] = st.ax;
+          sy[k] = st.ay;
+          sz[k] = st.az;
+        }
+        break;
+      case Fractal::fbm:
+      case Fractal::warped:
+        for (std::size_t k = 0; k < count; ++k) {
+          fbm3_step<B, false>(o, x[k], y[k], z[k], v[k], dx[k], dy[k], dz[k]);
+        }
+        break;
+    }
+  }
+}
+
+[[gnu::target_clones("avx2", "default")]] void fractal3_batch(const Plan& plan, const float* x,
+                                                              const float* y, const float* z,
+                                                              std::size_t n, float* value,
+                                                              float* dx, float* dy, float* dz) {
+  alignas(32) float cx[kChunk], cy[kChunk], cz[kChunk];
+  alignas(32) float cv[kChunk], cdx[kChunk], cdy[kChunk], cdz[kChunk];
+  alignas(32) float sa[kChunk], sx[kChunk], sy[kChunk], sz[kChunk];
+  for (std::size_t base = 0; base < n; base += kChunk) {
+    const std::size_t m = std::min(kChunk, n - base);
+    const float* px = x + base;
+    const float* py = y + base;
+    const float* pz = z + base;
+    const std::size_t count = (m + 7) & ~std::size_t{7};
+    if (m < count) {
+      std::fill(cx, cx + count, 0.0f);
+      std::fill(cy, cy + count, 0.0f);
+      std::fill(cz, cz + count, 0.0f);
+      std::copy(px, px + m, cx);
+      std::copy(py, py + m, cy);
+      std::copy(pz, pz + m, cz);
+      px = cx;
+      py = cy;
+      pz = cz;
+    }
+    if (plan.basis == Basis::simplex) {
+      chunk3<Basis::simplex>(plan, count, px, py, pz, cv, cdx, cdy, cdz, sa, sx, sy, sz);
+    } else {
+      chunk3<Basis::gradient>(plan, count, px, py, pz, cv, cdx, cdy, cdz, sa, sx, sy, sz);
+    }
+    for (std::size_t k = 0; k < m; ++k) {
+      value[base + k] = cv[k];
+      dx[base + k] = cdx[k];
+      dy[base + k] = cdy[k];
+      dz[base + k] = cdz[k];
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bounds (double precision; see docs/noise.md for the derivations).
+
+struct Range {
+  double lo = 0.0;
+  double hi = 0.0;
+};
+
+Range product(Range a, Range b) {
+  const double p[4] = {a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi};
+  return {std::min({p[0], p[1], p[2], p[3]}), std::max({p[0], p[1], p[2], p[3]})};
+}
+Range scaled(Range a, double s) {
+  return product(a, {s, s});
+}
+Range clamped01(Range a) {
+  return {std::clamp(a.lo, 0.0, 1.0), std::clamp(a.hi, 0.0, 1.0)};
+}
+double magnitude(Range a) {
+  return std::max(std::abs(a.lo), std::abs(a.hi));
+}
+
+// Rounds a bound up to a float, with a relative margin for the float evaluation's rounding.
+float round_up(double x) {
+  const double padded = x + std::abs(x) * 1e-6;
+  const auto f = static_cast<float>(padded);
+  return static_cast<double>(f) < padded ? std::nextafter(f, std::numeric_limits<float>::infinity())
+                                         : f;
+}
+float round_down(double x) {
+  const double padded = x - std::abs(x) * 1e-6;
+  const auto f = static_cast<float>(padded);
+  return static_cast<double>(f) > padded
+             ? std::nextafter(f, -std::numeric_limits<float>::infinity())
+             : f;
+}
+
+// Signal range of the ridged kind: (offset − |η|)² for |η| ∈ [0, 1].
+Range ridged_signal(double offset) {
+  const double a = offset * offset;
+  const double b = (offset - 1.0) * (offset - 1.0);
+  const double lo = (offset >= 0.0 && offset <= 1.0) ? 0.0 : std::min(a, b);
+  return {lo, std::max(a, b)};
+}
+
+struct FractalBounds {
+  Range value;
+  double lipschitz = 0.0;
+};
+
+FractalBounds bounds_of(const FractalParams& p, float octaves, double radius, double lambda) {
+  const Plan plan = make_plan(p, octaves);
+  FractalBounds out;
+  const Fractal kind = plan.kind;
+  const double offset = plan.ridge_offset;
+  const double ridge_gain = plan.ridge_gain;
+  // ridged/hybrid weight W_i: its range and a bound of |∇W_i|.
+  Range weight{1.0, 1.0};
+  double weight_slope = 0.0;
+  // warped: bounds of |∇H_{i-1}| and |∇T_i|.
+  double height_slope = 0.0;
+  double sum_slope = 0.0;
+  const double shift =
+      std::hypot(static_cast<double>(plan.shift_x), static_cast<double>(plan.shift_y));
+  const double twist = std::abs(static_cast<double>(plan.twist));
+  for (int i = 0; i < plan.count; ++i) {
+    const Octave& o = plan.octave[static_cast<std::size_t>(i)];
+    const double a = o.amplitude;  // includes the octave weight
+    const double f = o.frequency;
+    const double eta_slope = std::abs(f) * lambda;  // |∇η(f p)|
+    switch (kind) {
+      case Fractal::fbm: {
+        out.value.lo -= std::abs(a);
+        out.value.hi += std::abs(a);
+        out.lipschitz += std::abs(a) * eta_slope;
+        break;
+      }
+      case Fractal::ridged: {
+        const Range s = ridged_signal(offset);
+        const double m = std::max(std::abs(offset), std::abs(offset - 1.0));
+        const double s_slope = 2.0 * m * eta_slope;
+        const Range term = scaled(product(s, weight), a);
+        out.value.lo += term.lo;
+        out.value.hi += term.hi;
+        out.lipschitz += std::abs(a) * (magnitude(weight) * s_slope + s.hi * weight_slope);
+        weight = clamped01(scaled(s, ridge_gain));
+        weight_slope = std::abs(ridge_gain) * s_slope;
+        break;
+      }
+      case Fractal::hybrid: {
+        const double g = o.gain;
+        const Range s{g * (offset - 1.0), g * (offset + 1.0)};
+        const double s_slope = g * eta_slope;
+        const Range ws = product(weight, s);
+        const Range term = scaled(ws, a);
+        out.value.lo += term.lo;
+        out.value.hi += term.hi;
+        const double product_slope = magnitude(weight) * s_slope + magnitude(s) * weight_slope;
+        out.lipschitz += std::abs(a) * product_slope;
+        weight = clamped01(ws);
+        weight_slope = product_slope;
+        break;
+      }
+      case Fractal::warped: {
+        out.value.lo -= std::abs(a);
+        out.value.hi += std::abs(a);
+        // ‖∂q/∂p‖ ≤ f‖Rot‖ + (f‖Rot'‖|p|·|c1/(rH)| + |c3|)·|∇T_i|.
+        const double jacobian = std::abs(f) * kRotationNorm +
+                                (std::abs(f) * kRotationNorm * radius * twist + shift) * sum_slope;
+        height_slope += std::abs(a) * lambda * jacobian;
+        sum_slope += height_slope;
+        out.lipschitz = height_slope;
+        break;
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace
+
+// -----------------------------------------------------------------------------------------------
+// Public API.
 
 Sample2 gradient2(float x, float y, std::uint32_t seed) {
-  Sample2 s;
-  gradient2_kernel(x, y, seed, s.value, s.dx, s.dy);
-  return s;
-}
-
-Sample3 gradient3(float x, float y, float z, std::uint32_t seed) {
-  const int i = fast_floor(x), j = fast_floor(y), k = fast_floor(z);
-  const float f[3] = {x - static_cast<float>(i), y - static_cast<float>(j), z - static_cast<float>(k)};
-  const float s[3] = {fade(f[0]), fade(f[1]), fade(f[2])};
-  const float ds[3] = {fade_slope(f[0]), fade_slope(f[1]), fade_slope(f[2])};
-  Sample3 out;
-  for (int c = 0; c < 8; ++c) {
-    const int cx = c & 1, cy = (c >> 1) & 1, cz = (c >> 2) & 1;
-    const float* g = grad3(i + cx, j + cy, k + cz, seed);
-    const float d[3] = {f[0] - static_cast<float>(cx), f[1] - static_cast<float>(cy),
-                        f[2] - static_cast<float>(cz)};
-    const float n = g[0] * d[0] + g[1] * d[1] + g[2] * d[2];
-    const float w[3] = {cx ? s[0] : 1.0f - s[0], cy ? s[1] : 1.0f - s[1], cz ? s[2] : 1.0f - s[2]};
-    const float dw[3] = {cx ? ds[0] : -ds[0], cy ? ds[1] : -ds[1], cz ? ds[2] : -ds[2]};
-    const float weight = w[0] * w[1] * w[2];
-    out.value += weight * n;
-    out.dx += weight * g[0] + dw[0] * w[1] * w[2] * n;
-    out.dy += weight * g[1] + w[0] * dw[1] * w[2] * n;
-    out.dz += weight * g[2] + w[0] * w[1] * dw[2] * n;
-  }
-  out.value *= kGradientScale3;
-  out.dx *= kGradientScale3;
-  out.dy *= kGradientScale3;
-  out.dz *= kGradientScale3;
-  return out;
+  const Lattice l = lattice_of(seed);
+  return gradient2_kernel<true>(x + l.ox, y + l.oy, l.key);
 }
 
 Sample2 simplex2(float x, float y, std::uint32_t seed) {
-  Sample2 s;
-  simplex2_kernel(x, y, seed, s.value, s.dx, s.dy);
-  return s;
+  const Lattice l = lattice_of(seed);
+  return simplex2_kernel<true>(x + l.ox, y + l.oy, l.key);
+}
+
+Sample3 gradient3(float x, float y, float z, std::uint32_t seed) {
+  const Lattice l = lattice_of(seed);
+  return gradient3_kernel<true>(x + l.ox, y + l.oy, z + l.oz, l.key);
 }
 
 Sample3 simplex3(float x, float y, float z, std::uint32_t seed) {
-  constexpr float kSkew = 1.0f / 3.0f, kUnskew = 1.0f / 6.0f;
-  const float s = (x + y + z) * kSkew;
-  const int i = fast_floor(x + s), j = fast_floor(y + s), k = fast_floor(z + s);
-  const float t = static_cast<float>(i + j + k) * kUnskew;
-  const float x0 = x - (static_cast<float>(i) - t), y0 = y - (static_cast<float>(j) - t),
-              z0 = z - (static_cast<float>(k) - t);
-  // Rank the offsets to find the simplex's corner order.
-  int o1[3], o2[3];
-  if (x0 >= y0) {
-    if (y0 >= z0) { o1[0] = 1; o1[1] = 0; o1[2] = 0; o2[0] = 1; o2[1] = 1; o2[2] = 0; }
-    else if (x0 >= z0) { o1[0] = 1; o1[1] = 0; o1[2] = 0; o2[0] = 1; o2[1] = 0; o2[2] = 1; }
-    else { o1[0] = 0; o1[1] = 0; o1[2] = 1; o2[0] = 1; o2[1] = 0; o2[2] = 1; }
-  } else {
-    if (y0 < z0) { o1[0] = 0; o1[1] = 0; o1[2] = 1; o2[0] = 0; o2[1] = 1; o2[2] = 1; }
-    else if (x0 < z0) { o1[0] = 0; o1[1] = 1; o1[2] = 0; o2[0] = 0; o2[1] = 1; o2[2] = 1; }
-    else { o1[0] = 0; o1[1] = 1; o1[2] = 0; o2[0] = 1; o2[1] = 1; o2[2] = 0; }
-  }
-  const int corner[4][3] = {{0, 0, 0}, {o1[0], o1[1], o1[2]}, {o2[0], o2[1], o2[2]}, {1, 1, 1}};
-  Sample3 out;
-  for (int c = 0; c < 4; ++c) {
-    const float off = kUnskew * static_cast<float>(c);
-    const float d[3] = {x0 - static_cast<float>(corner[c][0]) + off,
-                        y0 - static_cast<float>(corner[c][1]) + off,
-                        z0 - static_cast<float>(corner[c][2]) + off};
-    const float a = 0.6f - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    if (a <= 0.0f) continue;
-    const float* g = grad3(i + corner[c][0], j + corner[c][1], k + corner[c][2], seed);
-    const float n = g[0] * d[0] + g[1] * d[1] + g[2] * d[2];
-    const float a2 = a * a, a4 = a2 * a2;
-    out.value += a4 * n;
-    out.dx += a4 * g[0] - 8.0f * a2 * a * n * d[0];
-    out.dy += a4 * g[1] - 8.0f * a2 * a * n * d[1];
-    out.dz += a4 * g[2] - 8.0f * a2 * a * n * d[2];
-  }
-  out.value *= kSimplexScale3;
-  out.dx *= kSimplexScale3;
-  out.dy *= kSimplexScale3;
-  out.dz *= kSimplexScale3;
-  return out;
+  const Lattice l = lattice_of(seed);
+  return simplex3_kernel<true>(x + l.ox, y + l.oy, z + l.oz, l.key);
 }
 
 float lipschitz(Basis basis, int dimensions) {
-  // Proven (conservative) bounds of |∇|, derived in docs/noise.md.
-  if (basis == Basis::gradient) return dimensions == 2 ? 6.8f : 8.0f;
-  return dimensions == 2 ? 8.6f : 7.8f;
-}
-
-float octave_weight(int i, float octaves) {
-  const float t = octaves - static_cast<float>(i);
-  if (t >= 1.0f) return 1.0f;
-  if (t <= 0.0f) return 0.0f;
-  const float s = 1.0f - t * t;
-  return 1.0f - s * s * s;
+  if (dimensions == 2) return basis == Basis::simplex ? kLipschitzSimplex2 : kLipschitzGradient2;
+  if (dimensions == 3) return basis == Basis::simplex ? kLipschitzSimplex3 : kLipschitzGradient3;
+  return std::numeric_limits<float>::infinity();
 }
 
 float visible_octaves(const FractalParams& p, float spacing) {
-  const float all = static_cast<float>(p.octaves);
-  if (spacing <= 0.0f) return all;
-  const double n = std::log(1.0 / (2.0 * static_cast<double>(spacing) * p.frequency)) /
-                       std::log(static_cast<double>(p.lacunarity)) +
-                   1.0;
-  return std::clamp(static_cast<float>(n), 0.0f, all);
+  const auto full = static_cast<float>(max_octaves(p));
+  if (!(spacing > 0.0f) || !(p.frequency > 0.0f) || !(p.lacunarity > 1.0f)) return full;
+  const double n =
+      std::log(1.0 / (2.0 * static_cast<double>(spacing) * static_cast<double>(p.frequency))) /
+          std::log(static_cast<double>(p.lacunarity)) +
+      1.0;
+  return static_cast<float>(std::clamp(n, 0.0, static_cast<double>(full)));
 }
 
-namespace {
-
-constexpr std::size_t kMaxBatch = 64;
-
-Sample2 basis2(Basis b, float x, float y, std::uint32_t seed) {
-  return b == Basis::simplex ? simplex2(x, y, seed) : gradient2(x, y, seed);
+float octave_weight(int i, float octaves) {
+  const auto fi = static_cast<float>(i);
+  if (!(octaves > fi)) return 0.0f;  // also NaN
+  if (fi + 1.0f <= octaves) return 1.0f;
+  const float t = octaves - fi;
+  const float u = 1.0f - t * t;
+  return 1.0f - u * u * u;
 }
-
-int octave_count(const FractalParams& p, float octaves) {
-  return std::min(p.octaves, static_cast<int>(std::ceil(octaves)));
-}
-
-}  // namespace
-
-Sample2 fractal2(const FractalParams& p, Vec2 point, float octaves) {
-  if (p.kind == Fractal::fbm || p.kind == Fractal::ridged) {
-    Sample2 s;
-    fractal2(p, &point.x, &point.y, 1, octaves, &s.value, &s.dx, &s.dy);
-    return s;
-  }
-  const float gain = std::pow(p.lacunarity, -p.hurst);
-  const int count = octave_count(p, octaves);
-  float frequency = p.frequency, amplitude = p.amplitude;
-  Sample2 sum;
-  // Ridged/hybrid: each octave is weighted by the previous one's signal (Musgrave).
-  float weight = 1.0f, wx = 0.0f, wy = 0.0f;
-  // Warped: rotation angle and translation driven by the height so far (docs/noise.md).
-  float angle = 0.0f, ax = 0.0f, ay = 0.0f;
-  Vec2 shift{0, 0};
-  float sx_x = 0.0f, sx_y = 0.0f, sy_x = 0.0f, sy_y = 0.0f;  // ∇shift.x, ∇shift.y
-  const float roughness = 1.0f / (p.lacunarity * p.hurst);
-  for (int i = 0; i < count; ++i) {
-    const float ow = octave_weight(i, octaves);
-    const std::uint32_t seed = hash(p.seed, static_cast<std::uint32_t>(i));
-    if (p.kind == Fractal::warped) {
-      const float c = std::cos(angle), s = std::sin(angle);
-      const float px = frequency * (c * point.x - s * point.y) + shift.x;
-      const float py = frequency * (s * point.x + c * point.y) + shift.y;
-      const Sample2 n = basis2(p.basis, px, py, seed);
-      // ∂(px, py)/∂p: rotation, plus the angle's and shift's dependence on p through the height.
-      const float rx = -s * point.x - c * point.y, ry = c * point.x - s * point.y;  // ∂/∂angle
-      const float jxx = frequency * (c + rx * ax) + sx_x, jxy = frequency * (-s + rx * ay) + sx_y;
-      const float jyx = frequency * (s + ry * ax) + sy_x, jyy = frequency * (c + ry * ay) + sy_y;
-      const float a = amplitude * ow;
-      sum.value += a * n.value;
-      sum.dx += a * (n.dx * jxx + n.dy * jyx);
-      sum.dy += a * (n.dx * jxy + n.dy * jyy);
-      // Update the warp from the height accumulated so far, in units of the first amplitude.
-      const float h = p.amplitude > 0.0f ? sum.value / p.amplitude : 0.0f;
-      const float hx = p.amplitude > 0.0f ? sum.dx / p.amplitude : 0.0f;
-      const float hy = p.amplitude > 0.0f ? sum.dy / p.amplitude : 0.0f;
-      angle += p.warp_c1 * roughness * h + p.warp_c2;
-      ax += p.warp_c1 * roughness * hx;
-      ay += p.warp_c1 * roughness * hy;
-      const float next = frequency * p.lacunarity;
-      const float ratio = p.lacunarity;  // shifts are in octave units: rescale to the next octave
-      shift = {ratio * (shift.x + p.warp_c3.x * h), ratio * (shift.y + p.warp_c3.y * h)};
-      sx_x = ratio * (sx_x + p.warp_c3.x * hx);
-      sx_y = ratio * (sx_y + p.warp_c3.x * hy);
-      sy_x = ratio * (sy_x + p.warp_c3.y * hx);
-      sy_y = ratio * (sy_y + p.warp_c3.y * hy);
-      frequency = next;
-    } else {
-      const Sample2 n = basis2(p.basis, frequency * point.x, frequency * point.y, seed);
-      if (p.kind == Fractal::fbm) {
-        const float a = amplitude * ow;
-        sum.value += a * n.value;
-        sum.dx += a * frequency * n.dx;
-        sum.dy += a * frequency * n.dy;
-      } else {
-        // signal = (offset − |η|)²
-        const float sign = n.value < 0.0f ? -1.0f : 1.0f;
-        const float base = p.ridge_offset - sign * n.value;
-        const float signal = p.kind == Fractal::ridged ? base * base : n.value + p.ridge_offset;
-        const float dsx = p.kind == Fractal::ridged ? -2.0f * base * sign * frequency * n.dx
-                                                    : frequency * n.dx;
-        const float dsy = p.kind == Fractal::ridged ? -2.0f * base * sign * frequency * n.dy
-                                                    : frequency * n.dy;
-        const float a = amplitude * ow;
-        sum.value += a * signal * weight;
-        sum.dx += a * (dsx * weight + signal * wx);
-        sum.dy += a * (dsy * weight + signal * wy);
-        // Next weight: clamp(signal · gain, 0, 1) (ridged) or clamp(weight · signal · 0.5, 0, 1)
-        // (hybrid); its gradient vanishes where clamped.
-        const float raw = p.kind == Fractal::ridged ? signal * p.ridge_gain
-                                                    : weight * signal * 0.5f;
-        const float rx = p.kind == Fractal::ridged ? dsx * p.ridge_gain
-                                                   : 0.5f * (wx * signal + weight * dsx);
-        const float ry = p.kind == Fractal::ridged ? dsy * p.ridge_gain
-                                                   : 0.5f * (wy * signal + weight * dsy);
-        const bool inside = raw > 0.0f && raw < 1.0f;
-        weight = std::clamp(raw, 0.0f, 1.0f);
-        wx = inside ? rx : 0.0f;
-        wy = inside ? ry : 0.0f;
-      }
-      frequency *= p.lacunarity;
-    }
-    amplitude *= gain;
-  }
-  return sum;
-}
-
-namespace {
-
-// Per-octave constants, computed once per call with the same multiplications in every path.
-struct Octaves {
-  int count = 0;
-  float frequency[24];
-  float amplitude[24];  // includes the LoD octave weight
-  std::uint32_t seed[24];
-};
-
-Octaves octave_table(const FractalParams& p, float octaves) {
-  Octaves t;
-  t.count = octave_count(p, octaves);
-  const float gain = std::pow(p.lacunarity, -p.hurst);
-  float frequency = p.frequency, amplitude = p.amplitude;
-  for (int i = 0; i < t.count; ++i) {
-    t.frequency[i] = frequency;
-    t.amplitude[i] = amplitude * octave_weight(i, octaves);
-    t.seed[i] = hash(p.seed, static_cast<std::uint32_t>(i));
-    frequency *= p.lacunarity;
-    amplitude *= gain;
-  }
-  return t;
-}
-
-// Octave-outer, point-inner loops over structure-of-arrays data: the inner loops have no
-// branches and vectorise; the AVX2 clone adds 8-wide integer multiplies for the hash. Results
-// are identical across clones (no FMA contraction, same operation order).
-template <bool kSimplex>
-__attribute__((target_clones("avx2", "default"))) void fbm_batch(
-    const Octaves& t, const float* x, const float* y, std::size_t n, float* value, float* dx,
-    float* dy) {
-  for (std::size_t k = 0; k < n; ++k) value[k] = dx[k] = dy[k] = 0.0f;
-  for (int o = 0; o < t.count; ++o) {
-    const float f = t.frequency[o], a = t.amplitude[o];
-    const std::uint32_t seed = t.seed[o];
-    for (std::size_t k = 0; k < n; ++k) {
-      float v, gx, gy;
-      if constexpr (kSimplex) {
-        simplex2_kernel(x[k] * f, y[k] * f, seed, v, gx, gy);
-      } else {
-        gradient2_kernel(x[k] * f, y[k] * f, seed, v, gx, gy);
-      }
-      value[k] += a * v;
-      dx[k] += a * f * gx;
-      dy[k] += a * f * gy;
-    }
-  }
-}
-
-// Musgrave's ridged multifractal: signal = (offset − |η|)², each octave weighted by
-// w = clamp(previous signal · gain, 0, 1) (w = 1 for the first); gradients by the chain rule.
-template <bool kSimplex>
-__attribute__((target_clones("avx2", "default"))) void ridged_batch(
-    const Octaves& t, float offset, float ridge_gain, const float* x, const float* y,
-    std::size_t n, float* value, float* dx, float* dy) {
-  float weight[kMaxBatch], wx[kMaxBatch], wy[kMaxBatch];
-  for (std::size_t k = 0; k < n; ++k) {
-    value[k] = dx[k] = dy[k] = 0.0f;
-    weight[k] = 1.0f;
-    wx[k] = wy[k] = 0.0f;
-  }
-  for (int o = 0; o < t.count; ++o) {
-    const float f = t.frequency[o], a = t.amplitude[o];
-    const std::uint32_t seed = t.seed[o];
-    for (std::size_t k = 0; k < n; ++k) {
-      float v, gx, gy;
-      if constexpr (kSimplex) {
-        simplex2_kernel(x[k] * f, y[k] * f, seed, v, gx, gy);
-      } else {
-        gradient2_kernel(x[k] * f, y[k] * f, seed, v, gx, gy);
-      }
-      const float sign = std::copysign(1.0f, v);
-      const float base = offset - sign * v;
-      const float signal = base * base;
-      const float sx = -2.0f * base * sign * f * gx;
-      const float sy = -2.0f * base * sign * f * gy;
-      value[k] += a * signal * weight[k];
-      dx[k] += a * (sx * weight[k] + signal * wx[k]);
-      dy[k] += a * (sy * weight[k] + signal * wy[k]);
-      const float raw = signal * ridge_gain;
-      const float inside = static_cast<float>((raw > 0.0f) & (raw < 1.0f));
-      weight[k] = std::min(std::max(raw, 0.0f), 1.0f);
-      wx[k] = inside * (sx * ridge_gain);
-      wy[k] = inside * (sy * ridge_gain);
-    }
-  }
-}
-
-}  // namespace
 
 void fractal2(const FractalParams& p, const float* x, const float* y, std::size_t n, float octaves,
               float* value, float* dx, float* dy) {
-  const bool simplex = p.basis == Basis::simplex;
-  if (p.kind == Fractal::fbm || p.kind == Fractal::ridged) {
-    const Octaves t = octave_table(p, octaves);
-    for (std::size_t start = 0; start < n; start += kMaxBatch) {
-      const std::size_t m = std::min(kMaxBatch, n - start);
-      const float* xs = x + start;
-      const float* ys = y + start;
-      float* v = value + start;
-      float* gx = dx + start;
-      float* gy = dy + start;
-      if (p.kind == Fractal::fbm) {
-        simplex ? fbm_batch<true>(t, xs, ys, m, v, gx, gy) : fbm_batch<false>(t, xs, ys, m, v, gx, gy);
-      } else if (simplex) {
-        ridged_batch<true>(t, p.ridge_offset, p.ridge_gain, xs, ys, m, v, gx, gy);
-      } else {
-        ridged_batch<false>(t, p.ridge_offset, p.ridge_gain, xs, ys, m, v, gx, gy);
-      }
-    }
-    return;
-  }
-  for (std::size_t k = 0; k < n; ++k) {
-    const Sample2 s = fractal2(p, {x[k], y[k]}, octaves);
-    value[k] = s.value;
-    dx[k] = s.dx;
-    dy[k] = s.dy;
-  }
+  const Plan& plan = cached_plan(p, octaves);
+  fractal2_batch(plan, x, y, n, value, dx, dy);
+}
+
+Sample2 fractal2(const FractalParams& p, Vec2 point, float octaves) {
+  const Plan& plan = cached_plan(p, octaves);
+  return plan.basis == Basis::simplex ? fractal2_point<Basis::simplex>(plan, point.x, point.y)
+                                      : fractal2_point<Basis::gradient>(plan, point.x, point.y);
 }
 
 void fractal3(const FractalParams& p, const float* x, const float* y, const float* z, std::size_t n,
               float octaves, float* value, float* dx, float* dy, float* dz) {
-  const float gain = std::pow(p.lacunarity, -p.hurst);
-  const int count = octave_count(p, octaves);
-  for (std::size_t k = 0; k < n; ++k) {
-    float frequency = p.frequency, amplitude = p.amplitude;
-    Sample3 sum;
-    for (int i = 0; i < count; ++i) {
-      const std::uint32_t seed = hash(p.seed, static_cast<std::uint32_t>(i));
-      const Sample3 s = p.basis == Basis::simplex
-                            ? simplex3(frequency * x[k], frequency * y[k], frequency * z[k], seed)
-                            : gradient3(frequency * x[k], frequency * y[k], frequency * z[k], seed);
-      const float a = amplitude * octave_weight(i, octaves);
-      sum.value += a * s.value;
-      sum.dx += a * frequency * s.dx;
-      sum.dy += a * frequency * s.dy;
-      sum.dz += a * frequency * s.dz;
-      frequency *= p.lacunarity;
-      amplitude *= gain;
-    }
-    value[k] = sum.value;
-    dx[k] = sum.dx;
-    dy[k] = sum.dy;
-    dz[k] = sum.dz;
-  }
+  const Plan& plan = cached_plan(p, octaves);
+  fractal3_batch(plan, x, y, z, n, value, dx, dy, dz);
+}
+
+Sample3 fractal3(const FractalParams& p, float x, float y, float z, float octaves) {
+  const Plan& plan = cached_plan(p, octaves);
+  return plan.basis == Basis::simplex ? fractal3_point<Basis::simplex>(plan, x, y, z)
+                                      : fractal3_point<Basis::gradient>(plan, x, y, z);
 }
 
 Interval fractal_range(const FractalParams& p, float octaves) {
-  const float gain = std::pow(p.lacunarity, -p.hurst);
-  const int count = octave_count(p, octaves);
-  float amplitude = p.amplitude, lo = 0.0f, hi = 0.0f;
-  for (int i = 0; i < count; ++i) {
-    const float a = amplitude * octave_weight(i, octaves);
-    if (p.kind == Fractal::ridged) {
-      // signal = (offset − |η|)² with |η| ≤ 1, weighted by w ∈ [0, 1].
-      const float top = std::max((p.ridge_offset - 1.0f) * (p.ridge_offset - 1.0f),
-                                 p.ridge_offset * p.ridge_offset);
-      hi += a * top;
-    } else if (p.kind == Fractal::hybrid) {
-      lo += a * std::min(0.0f, p.ridge_offset - 1.0f);
-      hi += a * (p.ridge_offset + 1.0f);
-    } else {
-      lo -= a;
-      hi += a;
-    }
-    amplitude *= gain;
-  }
-  return {lo * 1.0001f - 1e-6f, hi * 1.0001f + 1e-6f};
+  const FractalBounds b = bounds_of(p, octaves, 0.0, 0.0);
+  return {round_down(b.value.lo), round_up(b.value.hi)};
 }
 
 float fractal_lipschitz(const FractalParams& p, float octaves, float radius) {
-  const float gain = std::pow(p.lacunarity, -p.hurst);
-  const int count = octave_count(p, octaves);
-  const float eta = lipschitz(p.basis, 2);
-  float amplitude = p.amplitude, frequency = p.frequency;
-  float bound = 0.0f;
-  if (p.kind == Fractal::fbm) {
-    for (int i = 0; i < count; ++i) {
-      bound += amplitude * octave_weight(i, octaves) * frequency * eta;
-      amplitude *= gain;
-      frequency *= p.lacunarity;
-    }
-  } else if (p.kind == Fractal::ridged || p.kind == Fractal::hybrid) {
-    // Term i: a_i (|∇signal| · w + signal · |∇w|); |∇w| ≤ |∇raw| of the previous octave.
-    // |offset − |η|| ≤ max(|offset − 1|, offset) since |η| ≤ 1.
-    const float base = std::max(std::abs(p.ridge_offset - 1.0f), p.ridge_offset);
-    const float top = p.kind == Fractal::ridged ? base * base : p.ridge_offset + 1.0f;
-    const float dsignal_per_freq = p.kind == Fractal::ridged ? 2.0f * base * eta : eta;
-    float weight_slope = 0.0f;
-    for (int i = 0; i < count; ++i) {
-      const float signal_slope = dsignal_per_freq * frequency;
-      bound += amplitude * octave_weight(i, octaves) * (signal_slope + top * weight_slope);
-      weight_slope = p.kind == Fractal::ridged ? signal_slope * p.ridge_gain
-                                               : 0.5f * (weight_slope * top + signal_slope);
-      amplitude *= gain;
-      frequency *= p.lacunarity;
-    }
-  } else {
-    // Warped: octave i's Jacobian ≤ f_i (1 + r |∇angle|) + |∇shift|, with |∇angle| and |∇shift|
-    // driven by the bound of |∇h| so far (h in units of the first amplitude).
-    const float roughness = 1.0f / (p.lacunarity * p.hurst);
-    const float c3 = length(p.warp_c3);
-    float angle_slope = 0.0f, shift_slope = 0.0f;
-    for (int i = 0; i < count; ++i) {
-      const float jacobian = frequency * (1.0f + radius * angle_slope) + shift_slope;
-      bound += amplitude * octave_weight(i, octaves) * eta * jacobian;
-      const float h_slope = p.amplitude > 0.0f ? bound / p.amplitude : 0.0f;
-      angle_slope += std::abs(p.warp_c1) * roughness * h_slope;
-      shift_slope = p.lacunarity * (shift_slope + c3 * h_slope);
-      amplitude *= gain;
-      frequency *= p.lacunarity;
-    }
-  }
-  return bound * 1.0001f;
+  const double r = std::max(0.0, static_cast<double>(radius));
+  return round_up(bounds_of(p, octaves, r, lipschitz(p.basis, 2)).lipschitz);
+}
+
+float fractal3_lipschitz(const FractalParams& p, float octaves) {
+  FractalParams q = p;
+  if (q.kind == Fractal::warped) q.kind = Fractal::fbm;
+  return round_up(bounds_of(q, octaves, 0.0, lipschitz(p.basis, 3)).lipschitz);
 }
 
 }  // namespace terrain::noise

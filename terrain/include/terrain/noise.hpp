@@ -80,7 +80,7 @@ struct FractalParams {
   // height accumulated so far (see docs/noise.md for why angles replace the paper's vector update).
   float warp_c1 = 0.0f;      ///< rotation per unit roughness (radians)
   float warp_c2 = 0.0f;      ///< constant rotation per octave (radians)
-  Vec2 warp_c3{0.0f, 0.0f};  ///< translation per metre of accumulated height (in octave-0 units)
+  Vec2 warp_c3{0.0f, 0.0f};  ///< translation per unit of accumulated height, in lattice cells of the octave sampled
 };
 
 /// Schneider's LoD octave count: how many octaves are visible at sample spacing `spacing` metres
@@ -102,9 +102,15 @@ Sample2 fractal2(const FractalParams& p, Vec2 point, float octaves);
 void fractal3(const FractalParams& p, const float* x, const float* y, const float* z, std::size_t n,
               float octaves, float* value, float* dx, float* dy, float* dz);
 
+/// fractal3 at one point; bit-identical to the batch call.
+Sample3 fractal3(const FractalParams& p, float x, float y, float z, float octaves);
+
 /// Bounds of the fractal's value over all points, and a proven Lipschitz bound of its value over a
 /// region whose points lie within `radius` metres of the origin (only `warped` depends on it).
+/// fractal_range also bounds fractal3; fractal_lipschitz is for fractal2.
 Interval fractal_range(const FractalParams& p, float octaves);
 float fractal_lipschitz(const FractalParams& p, float octaves, float radius);
+/// Proven Lipschitz bound of fractal3 (3D basis bounds; `warped` is evaluated as fBm in 3D).
+float fractal3_lipschitz(const FractalParams& p, float octaves);
 
 }  // namespace terrain::noise
