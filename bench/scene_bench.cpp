@@ -32,7 +32,9 @@ const Loaded& load(const std::string& name) {
   std::stringstream text;
   text << in.rdbuf();
   ParseOptions options;
-  options.images = [](std::string_view ref) { return read_heightfield((kScenes / std::string(ref)).string()); };
+  options.images = [](std::string_view ref) {
+    return read_heightfield((kScenes / std::string(ref)).string());
+  };
   Scene scene = parse_scene_text(text.str(), options).value();
   Program program = compile(scene).value();
   return cache.emplace(name, Loaded{std::move(scene), std::move(program)}).first->second;

@@ -8,7 +8,7 @@ scripts/build.sh release
 mkdir -p out
 for scene in config/scenes/*.json; do
   name="$(basename "$scene" .json)"
-  build/release/tools/terrain render "$scene" -o "out/$name.png" "$@"
+  build/release/tools/terrain render "$scene" -o "out/$name.png" --width 480 --height 270 "$@"
   build/release/tools/terrain grid "$scene" -o "out/$name-height.tif" --size 512
 done
 echo "Pictures and heightmaps are in $(pwd)/out/"

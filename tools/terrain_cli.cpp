@@ -57,7 +57,8 @@ std::optional<Args> parse_args(int argc, char** argv) {
     std::string a = argv[i];
     if (a == "--plain" || a == "--help" || a == "-h") {
       args.options[a] = "1";
-    } else if (a.rfind("-", 0) == 0 && a.size() > 1 && !std::isdigit(static_cast<unsigned char>(a[1])) && a[1] != '.') {
+    } else if (a.rfind("-", 0) == 0 && a.size() > 1 &&
+               !std::isdigit(static_cast<unsigned char>(a[1])) && a[1] != '.') {
       if (i + 1 >= argc) {
         std::cerr << "terrain: option " << a << " needs a value\n";
         return std::nullopt;
@@ -96,8 +97,9 @@ std::optional<Scene> load_scene(const std::string& path) {
   };
   Result<Scene> scene = parse_scene_text(text.str(), options);
   if (!scene) {
-    std::cerr << path << ": " << (scene.error().pointer.empty() ? "(document)" : scene.error().pointer)
-              << ": " << scene.error().message << "\n";
+    std::cerr << path << ": "
+              << (scene.error().pointer.empty() ? "(document)" : scene.error().pointer) << ": "
+              << scene.error().message << "\n";
     return std::nullopt;
   }
   return std::move(scene).value();
@@ -133,7 +135,8 @@ int cmd_validate(const Args& args) {
                               {"hash", scene->hash},
                               {"instructions", program->code.size()},
                               {"parameters", program->pool.size()},
-                              {"support", {b.support.lo.x, b.support.lo.y, b.support.hi.x, b.support.hi.y}},
+                              {"support",
+                               {b.support.lo.x, b.support.lo.y, b.support.hi.x, b.support.hi.y}},
                               {"elevation", {b.elevation.lo, b.elevation.hi}},
                               {"lipschitz", b.elevation_lipschitz}}
                    .dump(2)
@@ -209,10 +212,12 @@ int cmd_grid(const Args& args) {
   const int n = static_cast<int>(*size);
   const double side = std::max(area.size().x, area.size().y);
   GridSpec grid{area.lo.x, area.lo.y, side / (n - 1), n, n, -1.0f};
-  if (args.has("--lod")) grid.lod_spacing = static_cast<float>(to_number(args.get("--lod", "0")).value_or(0));
+  if (args.has("--lod"))
+    grid.lod_spacing = static_cast<float>(to_number(args.get("--lod", "0")).value_or(0));
   const auto start = std::chrono::steady_clock::now();
   const GridResult result = evaluate_grid(*program, grid);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   // Images store row 0 at the top (north); the grid's row 0 is the south.
   std::vector<float> north_up(result.elevation.size());
   for (int j = 0; j < n; ++j) {
@@ -220,14 +225,18 @@ int cmd_grid(const Args& args) {
                 north_up.begin() + static_cast<std::ptrdiff_t>(n - 1 - j) * n);
   }
   Status written = Status(Ok{});
-  nlohmann::json info{{"output", out}, {"size", n}, {"step", grid.step}, {"milliseconds", ms},
+  nlohmann::json info{{"output", out},
+                      {"size", n},
+                      {"step", grid.step},
+                      {"milliseconds", ms},
                       {"origin", {grid.origin_x, grid.origin_y}}};
   if (out.ends_with(".png")) {
     const Interval z = program->bounds.elevation.hull(Interval::point(program->base_elevation));
     const float scale = z.width() > 0 ? z.width() / 65535.0f : 1.0f;
     std::vector<std::uint16_t> pixels(north_up.size());
     for (std::size_t i = 0; i < north_up.size(); ++i) {
-      pixels[i] = static_cast<std::uint16_t>(std::lround(std::clamp((north_up[i] - z.lo) / scale, 0.0f, 65535.0f)));
+      pixels[i] = static_cast<std::uint16_t>(
+          std::lround(std::clamp((north_up[i] - z.lo) / scale, 0.0f, 65535.0f)));
     }
     written = write_png16(out, n, n, pixels.data());
     info["elevation_offset"] = z.lo;
@@ -247,7 +256,8 @@ int cmd_render(const Args& args) {
   const std::string out = args.get("-o", "");
   const auto width = to_number(args.get("--width", "960"));
   const auto height = to_number(args.get("--height", "540"));
-  if (out.empty() || !width || !height || *width < 1 || *height < 1 || *width > 8192 || *height > 8192) {
+  if (out.empty() || !width || !height || *width < 1 || *height < 1 || *width > 8192 ||
+      *height > 8192) {
     std::cerr << "terrain render: needs -o OUT.png; --width/--height from 1 to 8192\n";
     return 2;
   }
@@ -256,14 +266,17 @@ int cmd_render(const Args& args) {
   const auto program = compile_scene(*scene);
   if (!program) return 1;
   const Box2 area = scene->area();
-  const Camera camera = default_camera(*program, area, static_cast<int>(*width), static_cast<int>(*height));
+  const Camera camera =
+      default_camera(*program, area, static_cast<int>(*width), static_cast<int>(*height));
   RenderOptions options;
   options.trace.accelerated = !args.has("--plain");
-  if (args.has("--water")) options.water_level = static_cast<float>(to_number(args.get("--water", "0")).value_or(-1e9));
+  if (args.has("--water"))
+    options.water_level = static_cast<float>(to_number(args.get("--water", "0")).value_or(-1e9));
   options.progress = progress_bar;
   const auto start = std::chrono::steady_clock::now();
   const Picture picture = render(*program, area, camera, options);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   const Status written = write_png_rgb8(out, picture.width, picture.height, picture.rgb.data());
   if (!written) {
     std::cerr << "terrain render: " << written.error().message << "\n";
@@ -271,7 +284,8 @@ int cmd_render(const Args& args) {
   }
   std::cout << nlohmann::json{{"output", out},
                               {"milliseconds", ms},
-                              {"steps_per_pixel", static_cast<double>(picture.total_steps) / (picture.width * picture.height)}}
+                              {"steps_per_pixel", static_cast<double>(picture.total_steps) /
+                                                      (picture.width * picture.height)}}
                    .dump(2)
             << "\n";
   return 0;

@@ -1,6 +1,7 @@
 // Star-shaped contours: a periodic shape-preserving quadratic spline for R(θ), smoothstep blending
 // between sector profiles, and the bounds the Lipschitz derivation of docs/geometry.md §3 needs.
 #include "terrain/contour.hpp"
+#include "geometry_util.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,25 +13,13 @@
 namespace terrain {
 namespace {
 
+using geometry_util::num;
+using geometry_util::preset_error;
+using geometry_util::round_down;
+using geometry_util::round_up;
+
 constexpr float kTwoPi = 6.28318530717958647692f;
 constexpr double kTwoPiD = 2.0 * std::numbers::pi;
-
-std::string num(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%g", v);
-  return buffer;
-}
-
-float round_up(double v) {
-  float f = static_cast<float>(v);
-  if (static_cast<double>(f) < v) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-  return f;
-}
-
-Error preset_error(const char* preset, const char* field, const std::string& what, float got) {
-  return Error{std::string(preset) + ": " + field + " " + what + ", got " + num(got),
-               std::string("/") + field};
-}
 
 struct RadiusSample {
   float value;

@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "nodes/blend.hpp"
+#include "nodes/stored_bounds.hpp"
 
 namespace terrain {
 namespace {
@@ -20,9 +21,9 @@ const NodeType* type_by_id(std::uint16_t id) {
   return table[id & 0xff];
 }
 
-Box2 box_at(const float* pool) { return {{pool[0], pool[1]}, {pool[2], pool[3]}}; }
-
-NodeBounds no_weight_bounds() { return NodeBounds{}; }
+NodeBounds no_weight_bounds() {
+  return NodeBounds{};
+}
 
 // Over a finite box, a primitive's ranges shrink to its value at the centre ± its Lipschitz
 // bound times the half diagonal: cheap (one sample) and it keeps local bounds local, which is
@@ -106,13 +107,13 @@ void Evaluator::evaluate(const PointBlock& block, FieldBlock& out) {
         blend_finish(params, fields[sp - 1], n);
         break;
       case Op::cull:
-        if (!frame->box.intersects(box_at(params))) {
+        if (!frame->box.intersects(stored_box(params))) {
           fields[sp++].clear(n);
           pc += ins.skip;
         }
         break;
       case Op::group:
-        if (!frame->box.intersects(box_at(params))) pc += ins.skip;
+        if (!frame->box.intersects(stored_box(params))) pc += ins.skip;
         break;
       case Op::combine:
         --sp;
@@ -183,13 +184,13 @@ NodeBounds Evaluator::bounds(const BoundsQuery& query) {
         s.blends.pop_back();
         break;
       case Op::cull:
-        if (!q.box.intersects(box_at(params))) {
+        if (!q.box.intersects(stored_box(params))) {
           s.bounds.push_back(no_weight_bounds());
           pc += ins.skip;
         }
         break;
       case Op::group:
-        if (!q.box.intersects(box_at(params))) pc += ins.skip;
+        if (!q.box.intersects(stored_box(params))) pc += ins.skip;
         break;
       case Op::combine: {
         const NodeBounds b = s.bounds.back();
@@ -224,8 +225,7 @@ GridResult evaluate_grid(const Program& program, const GridSpec& grid, int threa
   const int blocks_x = (grid.width + kSide - 1) / kSide;
   const int blocks_y = (grid.height + kSide - 1) / kSide;
   const int block_count = blocks_x * blocks_y;
-  const float spacing =
-      grid.lod_spacing < 0.0f ? static_cast<float>(grid.step) : grid.lod_spacing;
+  const float spacing = grid.lod_spacing < 0.0f ? static_cast<float>(grid.step) : grid.lod_spacing;
   std::atomic<int> next{0};
 
   auto worker = [&] {
@@ -250,8 +250,9 @@ GridResult evaluate_grid(const Program& program, const GridSpec& grid, int threa
       int k = 0;
       for (int j = by; j < std::min(by + kSide, grid.height); ++j) {
         for (int i = bx; i < std::min(bx + kSide, grid.width); ++i, ++k) {
-          const std::size_t at = static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.width) +
-                                 static_cast<std::size_t>(i);
+          const std::size_t at =
+              static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.width) +
+              static_cast<std::size_t>(i);
           result.elevation[at] = out.f[k];
           result.gradient_x[at] = out.fx[k];
           result.gradient_y[at] = out.fy[k];
@@ -260,8 +261,8 @@ GridResult evaluate_grid(const Program& program, const GridSpec& grid, int threa
     }
   };
 
-  const int count = threads > 0 ? threads
-                                : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int count =
+      threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int used = std::min(count, block_count);
   std::vector<std::thread> pool;
   for (int t = 1; t < used; ++t) pool.emplace_back(worker);

@@ -36,7 +36,9 @@ const nlohmann::json* FieldReader::find(std::string_view key) {
   return it == object_.end() ? nullptr : &*it;
 }
 
-bool FieldReader::has(std::string_view key) const { return object_.contains(std::string(key)); }
+bool FieldReader::has(std::string_view key) const {
+  return object_.contains(std::string(key));
+}
 
 void FieldReader::fail(std::string message, std::string_view key) {
   fail_at(std::move(message), key.empty() ? pointer_ : pointer_join(pointer_, key));
@@ -46,7 +48,9 @@ void FieldReader::fail_at(std::string message, std::string pointer) {
   if (!error_) error_ = Error{std::move(message), std::move(pointer)};
 }
 
-void FieldReader::skip(std::string_view key) { read_.emplace(key); }
+void FieldReader::skip(std::string_view key) {
+  read_.emplace(key);
+}
 
 double FieldReader::number(std::string_view key, std::optional<double> fallback, NumberRule rule) {
   const nlohmann::json* value = find(key);
@@ -159,7 +163,9 @@ Vec2 FieldReader::vec2(std::string_view key, std::optional<Vec2> fallback, Numbe
   return v;
 }
 
-const nlohmann::json* FieldReader::raw(std::string_view key) { return find(key); }
+const nlohmann::json* FieldReader::raw(std::string_view key) {
+  return find(key);
+}
 
 FieldReader FieldReader::nested(std::string_view key) {
   const nlohmann::json* value = find(key);

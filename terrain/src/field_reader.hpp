@@ -32,8 +32,8 @@ class FieldReader {
   FieldReader(const nlohmann::json& object, std::string pointer);
 
   double number(std::string_view key, std::optional<double> fallback, NumberRule rule = {});
-  std::int64_t integer(std::string_view key, std::optional<std::int64_t> fallback,
-                       std::int64_t min, std::int64_t max);
+  std::int64_t integer(std::string_view key, std::optional<std::int64_t> fallback, std::int64_t min,
+                       std::int64_t max);
   bool boolean(std::string_view key, std::optional<bool> fallback);
   std::string choice(std::string_view key, std::optional<std::string_view> fallback,
                      std::span<const std::string_view> allowed);

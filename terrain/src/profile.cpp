@@ -3,6 +3,8 @@
 // (up to the evaluator's own rounding). See docs/geometry.md §1.
 #include "terrain/profile.hpp"
 
+#include "geometry_util.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -13,32 +15,12 @@
 namespace terrain {
 namespace {
 
+using geometry_util::num;
+using geometry_util::preset_error;
+using geometry_util::round_down;
+using geometry_util::round_up;
+
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-std::string num(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%g", v);
-  return buffer;
-}
-
-/// Largest float not above v (v finite).
-float round_down(double v) {
-  float f = static_cast<float>(v);
-  if (static_cast<double>(f) > v) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
-  return f;
-}
-
-/// Smallest float not below v (v finite).
-float round_up(double v) {
-  float f = static_cast<float>(v);
-  if (static_cast<double>(f) < v) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-  return f;
-}
-
-Error preset_error(const char* preset, const char* field, const std::string& what, float got) {
-  return Error{std::string(preset) + ": " + field + " " + what + ", got " + num(got),
-               std::string("/") + field};
-}
 
 /// Value, slope and second derivative of the real-arithmetic profile defined by the stored nodes.
 /// Mirrors profile_eval() operation by operation (in double), including the choice of half.

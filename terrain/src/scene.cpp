@@ -119,7 +119,8 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
   const NodeType* type = find_node_type(type_it->get<std::string>());
   if (type == nullptr) {
     std::string known;
-    for (const NodeType* t : node_types()) known += (known.empty() ? "" : ", ") + std::string(t->name);
+    for (const NodeType* t : node_types())
+      known += (known.empty() ? "" : ", ") + std::string(t->name);
     return Error{"unknown node type '" + type_it->get<std::string>() + "' (known: " + known + ")",
                  pointer + "/type"};
   }
@@ -148,10 +149,9 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
     }
     const std::size_t count = children_it->size();
     if (count < type->min_children || count > type->max_children) {
-      const std::string expected =
-          type->min_children == type->max_children
-              ? std::to_string(type->min_children)
-              : "at least " + std::to_string(type->min_children);
+      const std::string expected = type->min_children == type->max_children
+                                       ? std::to_string(type->min_children)
+                                       : "at least " + std::to_string(type->min_children);
       return Error{"a " + std::string(type->name) + " takes " + expected + " children, not " +
                        std::to_string(count),
                    pointer + "/children"};
@@ -169,9 +169,9 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
     canonical["children"] = std::move(canonical_children);
   }
   if (size > options_.limits.max_nodes) {
-    return Error{"the scene expands to more than " + std::to_string(options_.limits.max_nodes) +
-                     " nodes",
-                 pointer};
+    return Error{
+        "the scene expands to more than " + std::to_string(options_.limits.max_nodes) + " nodes",
+        pointer};
   }
 
   FieldReader reader(j, pointer);

@@ -81,7 +81,8 @@ float LipschitzGrid::bound(const Box2& box, float spacing) const {
   float worst = 0.0f;
   const std::vector<float>& grid = levels_[level];
   for (int j = j0; j <= j1; ++j) {
-    for (int i = i0; i <= i1; ++i) worst = std::max(worst, grid[static_cast<std::size_t>(j * cells_ + i)]);
+    for (int i = i0; i <= i1; ++i)
+      worst = std::max(worst, grid[static_cast<std::size_t>(j * cells_ + i)]);
   }
   return worst;
 }
@@ -96,10 +97,9 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
   TraceResult result;
   const Interval span = clip(domain, ray, options.t_max);
   if (span.empty()) return result;
-  const float horizontal = std::sqrt(ray.direction.x * ray.direction.x +
-                                     ray.direction.y * ray.direction.y);
-  const float global_lambda =
-      evaluator.bounds({Box2::everywhere(), 0.0f}).elevation_lipschitz;
+  const float horizontal =
+      std::sqrt(ray.direction.x * ray.direction.x + ray.direction.y * ray.direction.y);
+  const float global_lambda = evaluator.bounds({Box2::everywhere(), 0.0f}).elevation_lipschitz;
   float t = span.lo;
   float delta = options.initial_step;
   float last_lambda = global_lambda;
@@ -110,7 +110,8 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
     const float h = height_above(evaluator, p, spacing);
     // A hit within ε, within half the level-of-detail spacing (the surface is not defined more
     // finely than that), or within what float precision of t can still resolve.
-    const float tolerance = std::max({options.epsilon, 0.5f * spacing, t * 4e-7f * (1.0f + last_lambda)});
+    const float tolerance =
+        std::max({options.epsilon, 0.5f * spacing, t * 4e-7f * (1.0f + last_lambda)});
     if (h < tolerance) {
       result.hit = true;
       result.t = t;
@@ -138,13 +139,12 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
     // §7.2 step 2.3 doubles δ. Doubling the segment actually advanced (not the candidate) keeps
     // the segment, and so its Lipschitz bound, local after steps cut short near the terrain.
     delta = std::max(options.initial_step, 2.0f * step);
-
   }
   return result;
 }
 
-TraceResult march_dense(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray,
-                        float step, float t_max, float lod_per_metre) {
+TraceResult march_dense(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray, float step,
+                        float t_max, float lod_per_metre) {
   TraceResult result;
   const Interval span = clip(domain, ray, t_max);
   if (span.empty()) return result;
@@ -172,18 +172,20 @@ TraceResult march_dense(Evaluator& evaluator, const TraceDomain& domain, const R
 }
 
 Ray Camera::ray(float px, float py) const {
-  const Vec3 forward = normalise({target.x - position.x, target.y - position.y, target.z - position.z});
+  const Vec3 forward =
+      normalise({target.x - position.x, target.y - position.y, target.z - position.z});
   Vec3 right = normalise({forward.y, -forward.x, 0.0f});
   if (!std::isfinite(right.x)) right = {1, 0, 0};
-  const Vec3 up{right.y * forward.z - right.z * forward.y, right.z * forward.x - right.x * forward.z,
+  const Vec3 up{right.y * forward.z - right.z * forward.y,
+                right.z * forward.x - right.x * forward.z,
                 right.x * forward.y - right.y * forward.x};
   const float tan_half = std::tan(vertical_fov_degrees * std::numbers::pi_v<float> / 360.0f);
   const float aspect = static_cast<float>(width) / static_cast<float>(height);
   const float sx = (2.0f * (px / static_cast<float>(width)) - 1.0f) * tan_half * aspect;
   const float sy = (1.0f - 2.0f * (py / static_cast<float>(height))) * tan_half;
-  return {position, normalise({forward.x + sx * right.x + sy * up.x,
-                               forward.y + sx * right.y + sy * up.y,
-                               forward.z + sx * right.z + sy * up.z})};
+  return {position,
+          normalise({forward.x + sx * right.x + sy * up.x, forward.y + sx * right.y + sy * up.y,
+                     forward.z + sx * right.z + sy * up.z})};
 }
 
 float pixel_footprint(const Camera& camera) {
@@ -224,9 +226,11 @@ Rgb shade(const FieldSample& s, float z, const Interval& range, float water_leve
   const Vec3 n = normalise({-s.elevation_gradient.x, -s.elevation_gradient.y, 1.0f});
   const float slope = std::sqrt(1.0f - std::min(1.0f, n.z * n.z));  // sine of the slope angle
   const float height = range.width() > 0 ? (z - range.lo) / range.width() : 0.5f;
-  Rgb ground = mix({0.32f, 0.45f, 0.20f}, {0.55f, 0.50f, 0.38f}, std::clamp(height * 1.4f, 0.0f, 1.0f));
+  Rgb ground =
+      mix({0.32f, 0.45f, 0.20f}, {0.55f, 0.50f, 0.38f}, std::clamp(height * 1.4f, 0.0f, 1.0f));
   ground = mix(ground, {0.45f, 0.42f, 0.40f}, std::clamp((slope - 0.45f) * 4.0f, 0.0f, 1.0f));
-  if (height > 0.8f && slope < 0.6f) ground = mix(ground, {0.95f, 0.96f, 0.98f}, (height - 0.8f) * 5.0f);
+  if (height > 0.8f && slope < 0.6f)
+    ground = mix(ground, {0.95f, 0.96f, 0.98f}, (height - 0.8f) * 5.0f);
   if (z < water_level) ground = {0.12f, 0.30f, 0.45f};
   const Vec3 sun = normalise({-0.5f, -0.4f, 0.75f});
   const float diffuse = std::max(0.0f, n.x * sun.x + n.y * sun.y + n.z * sun.z);
@@ -272,8 +276,8 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
         Rgb color = sky(ray);
         const std::size_t at = static_cast<std::size_t>(y * camera.width + x);
         if (hit.hit) {
-          const FieldSample s = evaluator.sample({hit.position.x, hit.position.y},
-                                                 trace.lod_per_metre * hit.t);
+          const FieldSample s =
+              evaluator.sample({hit.position.x, hit.position.y}, trace.lod_per_metre * hit.t);
           const Rgb surface = shade(s, hit.position.z, domain.elevation, options.water_level);
           const float fog = 1.0f - std::exp(-hit.t / (2.5f * span));
           color = mix(surface, {0.80f, 0.86f, 0.92f}, fog);

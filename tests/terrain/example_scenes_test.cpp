@@ -31,7 +31,9 @@ Scene load(const std::string& name) {
   std::stringstream text;
   text << in.rdbuf();
   ParseOptions options;
-  options.images = [](std::string_view ref) { return read_heightfield((kScenes / std::string(ref)).string()); };
+  options.images = [](std::string_view ref) {
+    return read_heightfield((kScenes / std::string(ref)).string());
+  };
   return testing::parse_or_die(text.str(), options);
 }
 
@@ -49,7 +51,9 @@ TEST_P(ExampleScene, ParsesAndRoundTrips) {
   EXPECT_FALSE(scene.name.empty());
   ASSERT_TRUE(scene.extent.has_value());
   ParseOptions options;
-  options.images = [](std::string_view ref) { return read_heightfield((kScenes / std::string(ref)).string()); };
+  options.images = [](std::string_view ref) {
+    return read_heightfield((kScenes / std::string(ref)).string());
+  };
   const Scene again = testing::parse_or_die(scene.canonical_text(), options);
   EXPECT_EQ(again.hash, scene.hash);
 }

@@ -15,7 +15,8 @@ namespace terrain::testing {
 
 inline Scene parse_or_die(const std::string& text, const ParseOptions& options = {}) {
   Result<Scene> scene = parse_scene_text(text, options);
-  EXPECT_TRUE(scene.ok()) << (scene.ok() ? "" : scene.error().pointer + ": " + scene.error().message);
+  EXPECT_TRUE(scene.ok()) << (scene.ok() ? ""
+                                         : scene.error().pointer + ": " + scene.error().message);
   if (!scene.ok()) throw std::runtime_error("scene did not parse");
   return std::move(scene).value();
 }
@@ -51,15 +52,18 @@ inline void expect_gradients_match(const Scene& scene, int samples, float spacin
   for (int k = 0; k < samples; ++k) {
     const Vec2 p = random_point(rng, box);
     const FieldSample s = e.sample(p, spacing);
-    const FieldSample xp = e.sample({p.x + h, p.y}, spacing), xm = e.sample({p.x - h, p.y}, spacing);
-    const FieldSample yp = e.sample({p.x, p.y + h}, spacing), ym = e.sample({p.x, p.y - h}, spacing);
+    const FieldSample xp = e.sample({p.x + h, p.y}, spacing),
+                      xm = e.sample({p.x - h, p.y}, spacing);
+    const FieldSample yp = e.sample({p.x, p.y + h}, spacing),
+                      ym = e.sample({p.x, p.y - h}, spacing);
     const float fdx = (xp.elevation - xm.elevation) / (2 * h);
     const float fdy = (yp.elevation - ym.elevation) / (2 * h);
     const float adx = (xp.weight - xm.weight) / (2 * h);
     const float ady = (yp.weight - ym.weight) / (2 * h);
     const float scale = 1.0f + std::abs(s.elevation) * 1e-4f / h;  // float rounding of f
-    const bool f_ok = std::abs(fdx - s.elevation_gradient.x) <= 0.02f * scale + 0.02f * std::abs(fdx) &&
-                      std::abs(fdy - s.elevation_gradient.y) <= 0.02f * scale + 0.02f * std::abs(fdy);
+    const bool f_ok =
+        std::abs(fdx - s.elevation_gradient.x) <= 0.02f * scale + 0.02f * std::abs(fdx) &&
+        std::abs(fdy - s.elevation_gradient.y) <= 0.02f * scale + 0.02f * std::abs(fdy);
     const bool a_ok = std::abs(adx - s.weight_gradient.x) <= 1e-3f + 0.02f * std::abs(adx) &&
                       std::abs(ady - s.weight_gradient.y) <= 1e-3f + 0.02f * std::abs(ady);
     if (!f_ok || !a_ok) ++mismatches;
@@ -118,8 +122,10 @@ inline void expect_program_equals_tree(const Scene& scene, int samples, float sp
     const float tol = 1e-4f * (1.0f + std::abs(b.elevation));
     ASSERT_NEAR(a.elevation, b.elevation, tol) << scene.name << " at " << p.x << ", " << p.y;
     ASSERT_NEAR(a.weight, b.weight, 1e-5f);
-    ASSERT_NEAR(a.elevation_gradient.x, b.elevation_gradient.x, 5e-3f * (1 + std::abs(b.elevation_gradient.x)));
-    ASSERT_NEAR(a.elevation_gradient.y, b.elevation_gradient.y, 5e-3f * (1 + std::abs(b.elevation_gradient.y)));
+    ASSERT_NEAR(a.elevation_gradient.x, b.elevation_gradient.x,
+                5e-3f * (1 + std::abs(b.elevation_gradient.x)));
+    ASSERT_NEAR(a.elevation_gradient.y, b.elevation_gradient.y,
+                5e-3f * (1 + std::abs(b.elevation_gradient.y)));
   }
 }
 

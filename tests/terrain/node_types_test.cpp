@@ -2,9 +2,9 @@
 // new node type is checked without touching this file.
 #include <gtest/gtest.h>
 
-#include "field_checks.hpp"
 #include <cmath>
 #include <set>
+#include "field_checks.hpp"
 
 #include "terrain/node.hpp"
 

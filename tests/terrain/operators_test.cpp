@@ -48,15 +48,18 @@ TEST(BlendOperator, IsAssociativeWhereWeightsReachTheThreshold) {
 }
 
 TEST(BlendOperator, FadesToTheBaseLevelOutsideEverySupport) {
-  const Scene s = testing::parse_or_die(std::string(R"({"base_elevation": -20, "root": {"type": "blend", "children": [)") + kA + "]}}");
+  const Scene s = testing::parse_or_die(
+      std::string(R"({"base_elevation": -20, "root": {"type": "blend", "children": [)") + kA +
+      "]}}");
   const FieldSample far = evaluate_tree(s, {5000, 5000});
   EXPECT_FLOAT_EQ(far.elevation, -20.0f);
   EXPECT_EQ(far.weight, 0.0f);
 }
 
 TEST(ReplaceOperator, KeepsAOutsideBAndGivesBInsideItsCore) {
-  const Scene s = testing::parse_or_die(std::string(R"({"root": {"type": "replace", "children": [)") + kA + "," +
-                                        R"({"type": "disc", "center": [0, 0], "radius": 200, "elevation": 5}]}})");
+  const Scene s = testing::parse_or_die(
+      std::string(R"({"root": {"type": "replace", "children": [)") + kA + "," +
+      R"({"type": "disc", "center": [0, 0], "radius": 200, "elevation": 5}]}})");
   const Scene a = testing::parse_or_die(std::string(R"({"root": )") + kA + "}");
   EXPECT_FLOAT_EQ(evaluate_tree(s, {0, 0}).elevation, 5.0f);
   EXPECT_FLOAT_EQ(evaluate_tree(s, {-600, 300}).elevation, evaluate_tree(a, {-600, 300}).elevation);
@@ -64,14 +67,17 @@ TEST(ReplaceOperator, KeepsAOutsideBAndGivesBInsideItsCore) {
 }
 
 TEST(AddOperator, AddsWeightedElevation) {
-  const Scene s = testing::parse_or_die(std::string(R"({"root": {"type": "add", "children": [)") + kC + "," +
-                                        R"({"type": "disc", "center": [0, -350], "radius": 400, "elevation": 10}]}})");
+  const Scene s = testing::parse_or_die(
+      std::string(R"({"root": {"type": "add", "children": [)") + kC + "," +
+      R"({"type": "disc", "center": [0, -350], "radius": 400, "elevation": 10}]}})");
   EXPECT_FLOAT_EQ(evaluate_tree(s, {0, -350}).elevation, 190.0f);
 }
 
 TEST(LodOperator, HasNoJumpsAsTheDetailVaries) {
-  const Scene s = testing::parse_or_die(std::string(R"({"root": {"type": "lod", "coarse_spacing": 50, "fine_spacing": 5, "children": [)") +
-                                        kC + "," + kA + "]}}");
+  const Scene s = testing::parse_or_die(
+      std::string(
+          R"({"root": {"type": "lod", "coarse_spacing": 50, "fine_spacing": 5, "children": [)") +
+      kC + "," + kA + "]}}");
   const Vec2 p{-100, -100};
   float previous = evaluate_tree(s, p, 100.0f).elevation;
   for (float spacing = 100.0f; spacing > 1.0f; spacing *= 0.99f) {
@@ -79,7 +85,9 @@ TEST(LodOperator, HasNoJumpsAsTheDetailVaries) {
     EXPECT_LT(std::abs(f - previous), 2.0f) << "jump at spacing " << spacing;
     previous = f;
   }
-  EXPECT_FLOAT_EQ(evaluate_tree(s, p, 60.0f).elevation, evaluate_tree(testing::parse_or_die(std::string(R"({"root": )") + kC + "}"), p).elevation);
+  EXPECT_FLOAT_EQ(
+      evaluate_tree(s, p, 60.0f).elevation,
+      evaluate_tree(testing::parse_or_die(std::string(R"({"root": )") + kC + "}"), p).elevation);
 }
 
 TEST(DiscPrimitive, OctavesUnravelContinuouslyWithTheDetail) {
@@ -105,8 +113,11 @@ TEST(WeightFunction, IsZeroOutsideItsSupportAndContinuous) {
 }
 
 TEST(TransformOperator, ConcatenatedTransformsEqualNestedOnes) {
-  const Scene s = testing::parse_or_die(std::string(R"({"root": {"type": "transform", "translate": [100, 50], "rotate": 20, "scale": 1.5, "children": [
-     {"type": "transform", "translate": [-30, 10], "rotate": -45, "scale": [0.5, 2], "elevation_scale": 2, "elevation_offset": 3, "children": [)") + kB + "]}]}}");
+  const Scene s = testing::parse_or_die(
+      std::string(
+          R"({"root": {"type": "transform", "translate": [100, 50], "rotate": 20, "scale": 1.5, "children": [
+     {"type": "transform", "translate": [-30, 10], "rotate": -45, "scale": [0.5, 2], "elevation_scale": 2, "elevation_offset": 3, "children": [)") +
+      kB + "]}]}}");
   testing::expect_program_equals_tree(s, 500);
   CompileOptions plain;
   plain.concatenate_affine = false;

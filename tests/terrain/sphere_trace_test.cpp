@@ -74,7 +74,8 @@ TEST(SphereTracing, RayPointingUpwardsMisses) {
   const Scene scene = testing::parse_or_die(kHills);
   const Program program = testing::compile_or_die(scene);
   Evaluator e(program);
-  const TraceResult r = sphere_trace(e, trace_domain(program, scene.area()), {{0, 0, 2000}, {0, 0.6f, 0.8f}});
+  const TraceResult r =
+      sphere_trace(e, trace_domain(program, scene.area()), {{0, 0, 2000}, {0, 0.6f, 0.8f}});
   EXPECT_FALSE(r.hit);
 }
 

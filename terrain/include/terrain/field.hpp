@@ -41,17 +41,15 @@ struct FieldBlock {
   alignas(64) float ay[kBlockSize];
 
   void clear(int count);
-  FieldSample at(int i) const {
-    return {f[i], a[i], {fx[i], fy[i]}, {ax[i], ay[i]}};
-  }
+  FieldSample at(int i) const { return {f[i], a[i], {fx[i], fy[i]}, {ax[i], ay[i]}}; }
 };
 
 /// What a node guarantees over a region (a query box, or the whole plane): f is defined and
 /// Lipschitz on the whole plane, α vanishes outside `support`.
 struct NodeBounds {
-  Box2 support;              ///< α = 0 outside this box
-  Interval elevation;        ///< range of f over the query region
-  Interval weight{0, 0};     ///< range of α over the query region
+  Box2 support;                      ///< α = 0 outside this box
+  Interval elevation;                ///< range of f over the query region
+  Interval weight{0, 0};             ///< range of α over the query region
   float elevation_lipschitz = 0.0f;  ///< bound of |∇f| over the query region
   float weight_lipschitz = 0.0f;     ///< bound of |∇α| over the query region
 };

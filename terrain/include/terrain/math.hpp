@@ -20,9 +20,15 @@ struct Vec2 {
   friend constexpr bool operator==(Vec2 a, Vec2 b) = default;
 };
 
-constexpr float dot(Vec2 a, Vec2 b) { return a.x * b.x + a.y * b.y; }
-constexpr float cross(Vec2 a, Vec2 b) { return a.x * b.y - a.y * b.x; }
-inline float length(Vec2 a) { return std::sqrt(dot(a, a)); }
+constexpr float dot(Vec2 a, Vec2 b) {
+  return a.x * b.x + a.y * b.y;
+}
+constexpr float cross(Vec2 a, Vec2 b) {
+  return a.x * b.y - a.y * b.x;
+}
+inline float length(Vec2 a) {
+  return std::sqrt(dot(a, a));
+}
 
 /// A closed interval of reals; empty when lo > hi.
 struct Interval {
@@ -32,9 +38,7 @@ struct Interval {
   static constexpr Interval point(float v) { return {v, v}; }
   constexpr bool empty() const { return lo > hi; }
   constexpr float width() const { return hi - lo; }
-  constexpr Interval hull(Interval o) const {
-    return {std::min(lo, o.lo), std::max(hi, o.hi)};
-  }
+  constexpr Interval hull(Interval o) const { return {std::min(lo, o.lo), std::max(hi, o.hi)}; }
   constexpr bool contains(float v) const { return v >= lo && v <= hi; }
 };
 

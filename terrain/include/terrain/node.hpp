@@ -75,15 +75,15 @@ using NodeParser = Result<NodeParams> (*)(FieldReader& reader, ParseContext& con
 
 /// Static description of a node type.
 struct NodeType {
-  std::uint16_t id = 0;            ///< stable opcode shared by every evaluator (never reused)
-  std::string_view name;           ///< the JSON "type"
+  std::uint16_t id = 0;   ///< stable opcode shared by every evaluator (never reused)
+  std::string_view name;  ///< the JSON "type"
   NodeCategory category = NodeCategory::primitive;
   std::uint16_t min_children = 0;
   std::uint16_t max_children = 0;  ///< 0xffff = unbounded
   /// Binary operators whose B child acts only through its weight (replace, add): B may be culled
   /// where it has none. Not so for lod, which interpolates both children regardless.
   bool second_child_acts_by_weight = false;
-  std::string_view summary;        ///< one line for docs and --help
+  std::string_view summary;  ///< one line for docs and --help
   NodeParser parse = nullptr;
   NodeKernels kernels;
   /// A small complete example of this node (children included) for docs, tests and benchmarks.
@@ -98,8 +98,8 @@ const NodeType* find_node_type(std::string_view name);
 /// A node of a parsed scene tree. Subtrees may be shared (instancing): the tree is a DAG.
 struct Node {
   const NodeType* type = nullptr;
-  std::string id;                 ///< optional user label
-  std::string pointer;            ///< where it was defined in the scene JSON
+  std::string id;       ///< optional user label
+  std::string pointer;  ///< where it was defined in the scene JSON
   NodeParams params;
   std::vector<std::shared_ptr<const Node>> children;
 };

@@ -22,7 +22,9 @@ constexpr std::uint32_t hash(std::uint32_t x) {
   return x;
 }
 /// Hash of a structured key: each word is folded in turn, so (a, b) and (b, a) differ.
-constexpr std::uint32_t hash(std::uint32_t a, std::uint32_t b) { return hash(a ^ hash(b + 0x9e3779b9U)); }
+constexpr std::uint32_t hash(std::uint32_t a, std::uint32_t b) {
+  return hash(a ^ hash(b + 0x9e3779b9U));
+}
 constexpr std::uint32_t hash(std::uint32_t a, std::uint32_t b, std::uint32_t c) {
   return hash(hash(a, b), c);
 }
@@ -57,10 +59,10 @@ Sample3 simplex3(float x, float y, float z, std::uint32_t seed);
 float lipschitz(Basis basis, int dimensions);
 
 enum class Fractal : std::uint32_t {
-  fbm = 0,        ///< Σ a_i η(s_i p)
-  ridged = 1,     ///< Musgrave's ridged multifractal, weighted by the previous octave
-  hybrid = 2,     ///< Musgrave's hybrid multifractal
-  warped = 3,     ///< Schneider's rescale-and-add with height-dependent domain warping
+  fbm = 0,     ///< Σ a_i η(s_i p)
+  ridged = 1,  ///< Musgrave's ridged multifractal, weighted by the previous octave
+  hybrid = 2,  ///< Musgrave's hybrid multifractal
+  warped = 3,  ///< Schneider's rescale-and-add with height-dependent domain warping
 };
 
 /// Parameters of a fractal sum. Octave i has frequency `frequency · lacunarity^i` and amplitude
@@ -69,18 +71,19 @@ struct FractalParams {
   Fractal kind = Fractal::fbm;
   Basis basis = Basis::gradient;
   std::uint32_t seed = 0;
-  int octaves = 8;           ///< maximum octave count (1..24)
-  float frequency = 1.0f;    ///< of octave 0, cycles per metre
-  float amplitude = 1.0f;    ///< of octave 0, metres
-  float lacunarity = 2.0f;   ///< r > 1
-  float hurst = 1.0f;        ///< H > 0
-  float ridge_offset = 1.0f; ///< ridged/hybrid offset
-  float ridge_gain = 2.0f;   ///< ridged weighting gain
+  int octaves = 8;            ///< maximum octave count (1..24)
+  float frequency = 1.0f;     ///< of octave 0, cycles per metre
+  float amplitude = 1.0f;     ///< of octave 0, metres
+  float lacunarity = 2.0f;    ///< r > 1
+  float hurst = 1.0f;         ///< H > 0
+  float ridge_offset = 1.0f;  ///< ridged/hybrid offset
+  float ridge_gain = 2.0f;    ///< ridged weighting gain
   // Domain warping (kind == warped): per-octave rotation angle and translation driven by the
   // height accumulated so far (see docs/noise.md for why angles replace the paper's vector update).
   float warp_c1 = 0.0f;      ///< rotation per unit roughness (radians)
   float warp_c2 = 0.0f;      ///< constant rotation per octave (radians)
-  Vec2 warp_c3{0.0f, 0.0f};  ///< translation per unit of accumulated height, in lattice cells of the octave sampled
+  Vec2 warp_c3{0.0f, 0.0f};  ///< translation per unit of accumulated height, in lattice cells of
+                             ///< the octave sampled
 };
 
 /// Schneider's LoD octave count: how many octaves are visible at sample spacing `spacing` metres

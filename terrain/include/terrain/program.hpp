@@ -41,10 +41,10 @@ static_assert(sizeof(Instruction) == 16);
 struct Program {
   std::vector<Instruction> code;
   std::vector<float> pool;
-  NodeBounds bounds;          ///< global bounds of the root
+  NodeBounds bounds;  ///< global bounds of the root
   float base_elevation = 0.0f;
-  int max_field_depth = 0;    ///< field-stack slots the interpreter needs
-  int max_frame_depth = 0;    ///< nested warps
+  int max_field_depth = 0;  ///< field-stack slots the interpreter needs
+  int max_frame_depth = 0;  ///< nested warps
   std::string scene_hash;
 
   /// A JSON description (the browser and tests read it; binary buffers are base64).
@@ -54,7 +54,7 @@ struct Program {
 struct CompileOptions {
   int blend_leaf_size = 4;  ///< children per BVH leaf in large blends
   bool concatenate_affine = true;
-  bool cull = true;         ///< emit cull/group boxes (false: plain traversal)
+  bool cull = true;  ///< emit cull/group boxes (false: plain traversal)
 };
 
 /// Flattens a scene's tree into a program. Fails only on limits (depth, size).

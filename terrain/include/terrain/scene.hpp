@@ -25,8 +25,8 @@ using ImageResolver = std::function<Result<Raster>(std::string_view reference)>;
 
 /// Limits applied while parsing untrusted scenes.
 struct SceneLimits {
-  int max_depth = 64;             ///< nesting of nodes, definitions expanded
-  int max_nodes = 20000;          ///< nodes after instancing is expanded
+  int max_depth = 64;     ///< nesting of nodes, definitions expanded
+  int max_nodes = 20000;  ///< nodes after instancing is expanded
   std::int64_t max_image_pixels = 16 * 1024 * 1024;
   std::size_t max_pool_floats = 64 * 1024 * 1024;
 };

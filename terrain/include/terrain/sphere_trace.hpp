@@ -40,10 +40,10 @@ class LipschitzGrid {
 
 struct TraceOptions {
   bool accelerated = true;
-  float epsilon = 0.01f;        ///< metres above the surface that count as a hit (at least)
+  float epsilon = 0.01f;  ///< metres above the surface that count as a hit (at least)
   int max_steps = 1 << 16;
-  float initial_step = 10.0f;   ///< δ of the accelerated algorithm, metres
-  float lod_per_metre = 0.0f;   ///< sample spacing grows by this much per metre of distance
+  float initial_step = 10.0f;  ///< δ of the accelerated algorithm, metres
+  float lod_per_metre = 0.0f;  ///< sample spacing grows by this much per metre of distance
   float t_max = 1e7f;
   const LipschitzGrid* bounds = nullptr;  ///< precomputed local bounds (else the program is walked)
 };
@@ -67,8 +67,8 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
 
 /// Reference: marches with a fixed step and reports the first sign change of h (bisected), at the
 /// same level of detail as sphere_trace with `lod_per_metre`.
-TraceResult march_dense(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray,
-                        float step, float t_max, float lod_per_metre = 0.0f);
+TraceResult march_dense(Evaluator& evaluator, const TraceDomain& domain, const Ray& ray, float step,
+                        float t_max, float lod_per_metre = 0.0f);
 
 /// A pinhole camera looking from `position` towards `target`, z up.
 struct Camera {

@@ -71,8 +71,9 @@ const NodeType& add_node_type() {
       .min_children = 2,
       .max_children = 2,
       .second_child_acts_by_weight = true,
-      .summary = "adds the second child's elevation, scaled by its weight, to the first (dunes, "
-                 "details)",
+      .summary =
+          "adds the second child's elevation, scaled by its weight, to the first (dunes, "
+          "details)",
       .parse = parse_add,
       .kernels = {.combine = add_combine, .combine_bounds = add_bounds},
       .example_json = R"({"type": "add", "weight": "keep", "children": [

@@ -22,6 +22,8 @@ inline float max_difference(Interval a, Interval b) {
 }
 
 /// The bounds of B when it has no weight over the query: the operator then equals A.
-inline bool has_no_weight(const NodeBounds& b) { return b.weight.hi <= 0.0f; }
+inline bool has_no_weight(const NodeBounds& b) {
+  return b.weight.hi <= 0.0f;
+}
 
 }  // namespace terrain

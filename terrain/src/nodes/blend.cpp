@@ -23,7 +23,9 @@ Result<NodeParams> parse_blend(FieldReader& reader, ParseContext& context) {
 
 }  // namespace
 
-void blend_clear(FieldBlock& acc, int count) { acc.clear(count); }
+void blend_clear(FieldBlock& acc, int count) {
+  acc.clear(count);
+}
 
 void blend_accumulate(FieldBlock& acc, const FieldBlock& c, int count) {
   for (int i = 0; i < count; ++i) {
@@ -86,8 +88,9 @@ const NodeType& blend_node_type() {
       .category = NodeCategory::blend,
       .min_children = 1,
       .max_children = 0xffff,
-      .summary = "weighted average of any number of children, fading to a base level where "
-                 "their weights vanish",
+      .summary =
+          "weighted average of any number of children, fading to a base level where "
+          "their weights vanish",
       .parse = parse_blend,
       .kernels = {},
       .example_json = R"({"type": "blend", "threshold": 0.5, "base": 0, "children": [

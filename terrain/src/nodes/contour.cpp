@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "nodes/profile_spec.hpp"
+#include "nodes/stored_bounds.hpp"
 #include "terrain/contour.hpp"
 #include "terrain/scene.hpp"
 
@@ -39,7 +40,8 @@ Result<NodeParams> parse_contour(FieldReader& reader, ParseContext&) {
       const nlohmann::json& r = (*raw)[i];
       if (!r.is_number() || !std::isfinite(r.get<double>()) || r.get<double>() <= 0 ||
           r.get<double>() > 1e7) {
-        return Error{"must be a positive radius in metres", pointer_join(reader.pointer() + "/radii", i)};
+        return Error{"must be a positive radius in metres",
+                     pointer_join(reader.pointer() + "/radii", i)};
       }
       radii.push_back(static_cast<float>(r.get<double>()));
       canonical.push_back(r.get<double>());
@@ -73,9 +75,8 @@ Result<NodeParams> parse_contour(FieldReader& reader, ParseContext&) {
   const float angle = static_cast<float>(orientation * std::numbers::pi / 180.0);
   Result<Contour> contour = Contour::build(center, angle, radii, profiles);
   if (!contour) return Error{contour.error().message, reader.pointer() + contour.error().pointer};
-  const double falloff =
-      reader.number("falloff", std::max(1.25, static_cast<double>(contour->max_rho()) * 1.1),
-                    {0.01, 100.0});
+  const double falloff = reader.number(
+      "falloff", std::max(1.25, static_cast<double>(contour->max_rho()) * 1.1), {0.01, 100.0});
   if (!reader.ok()) return reader.error();
 
   // |∇ρ| ≤ sqrt(1 + (R'/R)²) / R over the plane (∇r and r·∇θ are orthonormal).
@@ -125,14 +126,9 @@ void contour_leaf(const float* params, const PointBlock& points, FieldBlock& out
 }
 
 NodeBounds contour_bounds(const float* params, const BoundsQuery& query) {
-  NodeBounds b;
-  b.support = {{params[kBox], params[kBox + 1]}, {params[kBox + 2], params[kBox + 3]}};
-  b.elevation = {params[kElevation] + params[kCLo], params[kElevation] + params[kCHi]};
-  b.elevation_lipschitz = params[kLipschitz];
-  const bool touches = query.box.intersects(b.support);
-  b.weight = touches ? Interval{0.0f, 1.0f} : Interval{0.0f, 0.0f};
-  b.weight_lipschitz = touches ? params[kWeightLipschitz] : 0.0f;
-  return b;
+  return stored_bounds(stored_box(params + kBox),
+                       {params[kElevation] + params[kCLo], params[kElevation] + params[kCHi]},
+                       params[kLipschitz], params[kWeightLipschitz], query);
 }
 
 }  // namespace
@@ -144,8 +140,9 @@ const NodeType& contour_node_type() {
       .category = NodeCategory::primitive,
       .min_children = 0,
       .max_children = 0,
-      .summary = "a lake, crater or plateau: radial profiles around a centre inside a closed "
-                 "contour",
+      .summary =
+          "a lake, crater or plateau: radial profiles around a centre inside a closed "
+          "contour",
       .parse = parse_contour,
       .kernels = {.leaf = contour_leaf, .leaf_bounds = contour_bounds},
       .example_json = R"({"type": "contour", "center": [0, 0], "elevation": 120, "orientation": 15,

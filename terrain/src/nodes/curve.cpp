@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "nodes/profile_spec.hpp"
+#include "nodes/stored_bounds.hpp"
 #include "terrain/polyline.hpp"
 #include "terrain/scene.hpp"
 
@@ -13,15 +14,18 @@ namespace terrain {
 namespace {
 
 // Pool layout (offsets relative to the node's first float):
-//   0 falloff (fall-off width beyond the core), 1 length, 2 profile count P, 3 polyline offset, 4 λ_f, 5 z_lo, 6 z_hi, 7 c_lo,
-//   8 c_hi, then P × (at, profile offset), then the polyline block and the profile blocks.
+//   0 falloff (fall-off width beyond the core), 1 length, 2 profile count P, 3 polyline offset, 4
+//   λ_f, 5 z_lo, 6 z_hi, 7 c_lo, 8 c_hi, then P × (at, profile offset), then the polyline block and
+//   the profile blocks.
 constexpr int kFalloff = 0, kLength = 1, kProfiles = 2, kPolyline = 3, kLipschitz = 4, kZLo = 5,
               kZHi = 6, kCLo = 7, kCHi = 8, kCore = 9, kTable = 10;
 
 constexpr std::array<std::string_view, 5> kCurvePresets{"stream", "river", "meander", "road",
                                                         "custom"};
 
-std::uint32_t as_count(float v) { return static_cast<std::uint32_t>(v); }
+std::uint32_t as_count(float v) {
+  return static_cast<std::uint32_t>(v);
+}
 
 Result<NodeParams> parse_curve(FieldReader& reader, ParseContext&) {
   // Skeleton.
@@ -77,9 +81,12 @@ Result<NodeParams> parse_curve(FieldReader& reader, ParseContext&) {
   nlohmann::json canonical_profiles = nlohmann::json::array();
   for (std::size_t i = 0; i < raw_profiles->size(); ++i) {
     FieldReader pr((*raw_profiles)[i], pointer_join(reader.pointer() + "/profiles", i));
-    const double at = pr.number("at", raw_profiles->size() == 1 ? 0.0 : static_cast<double>(i) /
-                                          static_cast<double>(raw_profiles->size() - 1),
-                                {0.0, 1.0});
+    const double at =
+        pr.number("at",
+                  raw_profiles->size() == 1
+                      ? 0.0
+                      : static_cast<double>(i) / static_cast<double>(raw_profiles->size() - 1),
+                  {0.0, 1.0});
     if (pr.ok() && !ats.empty() && !(static_cast<float>(at) > ats.back())) {
       pr.fail("must increase from one profile to the next", "at");
     }
@@ -117,8 +124,8 @@ Result<NodeParams> parse_curve(FieldReader& reader, ParseContext&) {
   for (std::size_t k = 0; k + 1 < profiles.size(); ++k) {
     const Interval diff = profile_difference(profiles[k], profiles[k + 1]);
     const float span = (ats[k + 1] - ats[k]) * polyline->length();
-    along = std::max(along, std::max(std::abs(diff.lo), std::abs(diff.hi)) * 1.5f /
-                                std::max(span, 1e-6f));
+    along = std::max(along,
+                     std::max(std::abs(diff.lo), std::abs(diff.hi)) * 1.5f / std::max(span, 1e-6f));
     c_range = c_range.hull(profiles[k + 1].range());
   }
   NodeParams out;
@@ -182,9 +189,9 @@ void curve_field(const float* params, const PointBlock& points, FieldBlock& out,
       const float x = a1 > a0 ? std::clamp((u - a0) / (a1 - a0), 0.0f, 1.0f) : 1.0f;
       const float t = x * x * (3.0f - 2.0f * x);
       const float dt_dx = (x > 0.0f && x < 1.0f) ? 6.0f * x * (1.0f - x) : 0.0f;
-      const ProfileBlendSample c = profile_blend_eval(params + as_count(table[2 * k + 1]),
-                                                      params + as_count(table[2 * k1 + 1]),
-                                                      q.signed_distance, t);
+      const ProfileBlendSample c =
+          profile_blend_eval(params + as_count(table[2 * k + 1]),
+                             params + as_count(table[2 * k1 + 1]), q.signed_distance, t);
       value = c.value;
       slope = c.slope;
       dvalue_ds = a1 > a0 ? c.dt * dt_dx / ((a1 - a0) * length) : 0.0f;
@@ -220,16 +227,12 @@ NodeBounds curve_bounds(const float* params, const BoundsQuery& query) {
   const float* boxes = polyline + 2 + 4 * (segments + 1);
   Box2 skeleton;
   for (std::uint32_t c = 0; c < chunks; ++c) {
-    skeleton = skeleton.united({{boxes[4 * c], boxes[4 * c + 1]}, {boxes[4 * c + 2], boxes[4 * c + 3]}});
+    skeleton =
+        skeleton.united({{boxes[4 * c], boxes[4 * c + 1]}, {boxes[4 * c + 2], boxes[4 * c + 3]}});
   }
-  NodeBounds b;
-  b.support = skeleton.expanded(falloff + params[kCore]);
-  b.elevation = {params[kZLo] + params[kCLo], params[kZHi] + params[kCHi]};
-  b.elevation_lipschitz = params[kLipschitz];
-  const bool touches = query.box.intersects(b.support);
-  b.weight = touches ? Interval{0.0f, 1.0f} : Interval{0.0f, 0.0f};
-  b.weight_lipschitz = touches ? Falloff::lipschitz(falloff) : 0.0f;
-  return b;
+  return stored_bounds(skeleton.expanded(falloff + params[kCore]),
+                       {params[kZLo] + params[kCLo], params[kZHi] + params[kCHi]},
+                       params[kLipschitz], Falloff::lipschitz(falloff), query);
 }
 
 }  // namespace

@@ -149,8 +149,9 @@ const NodeType& disc_node_type() {
       .category = NodeCategory::primitive,
       .min_children = 0,
       .max_children = 0,
-      .summary = "circular feature: plateau (no noise), hills (fbm), mountains (ridged), or "
-                 "multifractal terrain; octaves fade in with the level of detail",
+      .summary =
+          "circular feature: plateau (no noise), hills (fbm), mountains (ridged), or "
+          "multifractal terrain; octaves fade in with the level of detail",
       .parse = parse_disc,
       .kernels = {.leaf = disc_leaf,
                   .leaf_bounds = disc_bounds,

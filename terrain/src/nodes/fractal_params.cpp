@@ -5,8 +5,12 @@
 
 namespace terrain {
 
-float bits_to_float(std::uint32_t bits) { return std::bit_cast<float>(bits); }
-std::uint32_t float_to_bits(float value) { return std::bit_cast<std::uint32_t>(value); }
+float bits_to_float(std::uint32_t bits) {
+  return std::bit_cast<float>(bits);
+}
+std::uint32_t float_to_bits(float value) {
+  return std::bit_cast<std::uint32_t>(value);
+}
 
 noise::FractalParams read_fractal(FieldReader& reader, ParseContext& context,
                                   std::string_view default_kind) {
@@ -39,7 +43,8 @@ noise::FractalParams read_fractal(FieldReader& reader, ParseContext& context,
       valid = (*w)[i].is_number() && std::abs((*w)[i].get<double>()) <= 10.0;
       if (valid) warp[i] = (*w)[i].get<double>();
     }
-    if (!valid) reader.fail("must be an array of four numbers [c1, c2, c3x, c3y] within ±10", "warp");
+    if (!valid)
+      reader.fail("must be an array of four numbers [c1, c2, c3x, c3y] within ±10", "warp");
   }
   reader.canonical()["warp"] = nlohmann::json::array({warp[0], warp[1], warp[2], warp[3]});
   p.warp_c1 = static_cast<float>(warp[0]);

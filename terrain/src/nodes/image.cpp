@@ -3,6 +3,7 @@
 #include <array>
 
 #include "field_reader.hpp"
+#include "nodes/stored_bounds.hpp"
 #include "terrain/heightfield.hpp"
 #include "terrain/scene.hpp"
 
@@ -98,14 +99,8 @@ void image_leaf(const float* params, const PointBlock& points, FieldBlock& out) 
 }
 
 NodeBounds image_bounds(const float* params, const BoundsQuery& query) {
-  NodeBounds b;
-  b.support = {{params[kBox], params[kBox + 1]}, {params[kBox + 2], params[kBox + 3]}};
-  b.elevation = {params[kLo], params[kHi]};
-  b.elevation_lipschitz = params[kLipschitz];
-  const bool touches = query.box.intersects(b.support);
-  b.weight = touches ? Interval{0.0f, 1.0f} : Interval{0.0f, 0.0f};
-  b.weight_lipschitz = touches ? params[kWeightLipschitz] : 0.0f;
-  return b;
+  return stored_bounds(stored_box(params + kBox), {params[kLo], params[kHi]}, params[kLipschitz],
+                       params[kWeightLipschitz], query);
 }
 
 }  // namespace

@@ -44,7 +44,8 @@ NodeBounds lod_bounds(const float* params, const BoundsQuery& query, const NodeB
   const float s = 1.0f - t;
   NodeBounds out;
   out.support = a.support.united(b.support);
-  out.elevation = {s * a.elevation.lo + t * b.elevation.lo, s * a.elevation.hi + t * b.elevation.hi};
+  out.elevation = {s * a.elevation.lo + t * b.elevation.lo,
+                   s * a.elevation.hi + t * b.elevation.hi};
   out.weight = {s * a.weight.lo + t * b.weight.lo, s * a.weight.hi + t * b.weight.hi};
   out.elevation_lipschitz = s * a.elevation_lipschitz + t * b.elevation_lipschitz;
   out.weight_lipschitz = s * a.weight_lipschitz + t * b.weight_lipschitz;
@@ -67,8 +68,9 @@ const NodeType& lod_node_type() {
       .category = NodeCategory::binary,
       .min_children = 2,
       .max_children = 2,
-      .summary = "level-of-detail switch: the first child when sampled coarsely, the second when "
-                 "sampled finely, interpolated between",
+      .summary =
+          "level-of-detail switch: the first child when sampled coarsely, the second when "
+          "sampled finely, interpolated between",
       .parse = parse_lod,
       .kernels = {.combine = lod_combine, .combine_bounds = lod_bounds},
       .example_json = R"({"type": "lod", "coarse_spacing": 50, "fine_spacing": 5, "children": [

@@ -9,4 +9,4 @@ namespace terrain {
 const NodeType& lod_node_type();
 /// The interpolation parameter t ∈ [0, 1] for a sample spacing.
 float lod_blend_factor(const float* params, float spacing);
-}
+}  // namespace terrain

@@ -69,10 +69,12 @@ std::optional<Profile> read_profile(FieldReader& r, std::span<const std::string_
       const nlohmann::json& p = (*points)[i];
       if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number() ||
           !std::isfinite(p[0].get<double>()) || !std::isfinite(p[1].get<double>())) {
-        r.fail_at("must be a pair of finite numbers [d, h]", pointer_join(r.pointer() + "/points", i));
+        r.fail_at("must be a pair of finite numbers [d, h]",
+                  pointer_join(r.pointer() + "/points", i));
         return std::nullopt;
       }
-      parsed.push_back({static_cast<float>(p[0].get<double>()), static_cast<float>(p[1].get<double>())});
+      parsed.push_back(
+          {static_cast<float>(p[0].get<double>()), static_cast<float>(p[1].get<double>())});
       canonical.push_back({p[0].get<double>(), p[1].get<double>()});
     }
     r.canonical()["points"] = canonical;

@@ -1,5 +1,6 @@
 // Parses a cross-section profile object shared by curve and contour nodes:
-// {"preset": "stream" | "river" | "meander" | "road" | "lake" | "crater" | "plateau" | "custom", …}.
+// {"preset": "stream" | "river" | "meander" | "road" | "lake" | "crater" | "plateau" | "custom",
+// …}.
 #pragma once
 
 #include <span>

@@ -56,8 +56,7 @@ NodeBounds replace_bounds(const float* params, const BoundsQuery&, const NodeBou
                             b.weight_lipschitz * max_difference(a.elevation, b.elevation);
   if (progressive) {
     out.weight = {0.0f, std::max(a.weight.hi, w_max)};
-    out.weight_lipschitz =
-        a.weight_lipschitz + b.weight_lipschitz * (a.weight.hi + 2.0f * w_max);
+    out.weight_lipschitz = a.weight_lipschitz + b.weight_lipschitz * (a.weight.hi + 2.0f * w_max);
   }
   return out;
 }

@@ -28,7 +28,8 @@ Result<NodeParams> parse_transform(FieldReader& reader, ParseContext&) {
   } else if (s != nullptr) {
     reader.vec2("scale", std::nullopt, {1e-4, 1e4});
     if (reader.ok()) {
-      scale = {static_cast<float>((*s)[0].get<double>()), static_cast<float>((*s)[1].get<double>())};
+      scale = {static_cast<float>((*s)[0].get<double>()),
+               static_cast<float>((*s)[1].get<double>())};
     }
   }
   reader.canonical()["scale"] = nlohmann::json::array({scale.x, scale.y});
@@ -100,9 +101,13 @@ Box2 map_box(const float* m, const Box2& box) {
   return out;
 }
 
-float transform_spacing(const float* params, float spacing) { return spacing * params[14]; }
+float transform_spacing(const float* params, float spacing) {
+  return spacing * params[14];
+}
 
-Box2 transform_box(const float* params, const Box2& box) { return map_box(params, box); }
+Box2 transform_box(const float* params, const Box2& box) {
+  return map_box(params, box);
+}
 
 NodeBounds transform_bounds(const float* params, const NodeBounds& child) {
   const AffineParams p = AffineParams::unpack(params);
@@ -110,8 +115,10 @@ NodeBounds transform_bounds(const float* params, const NodeBounds& child) {
   out.support = child.support.empty() ? child.support : map_box(p.forward, child.support);
   const float lo = p.elevation_scale * child.elevation.lo + p.elevation_offset;
   const float hi = p.elevation_scale * child.elevation.hi + p.elevation_offset;
-  out.elevation = child.elevation.empty() ? child.elevation : Interval{std::min(lo, hi), std::max(lo, hi)};
-  out.elevation_lipschitz = std::abs(p.elevation_scale) * p.inverse_norm * child.elevation_lipschitz;
+  out.elevation =
+      child.elevation.empty() ? child.elevation : Interval{std::min(lo, hi), std::max(lo, hi)};
+  out.elevation_lipschitz =
+      std::abs(p.elevation_scale) * p.inverse_norm * child.elevation_lipschitz;
   out.weight_lipschitz = p.inverse_norm * child.weight_lipschitz;
   return out;
 }
@@ -162,8 +169,9 @@ const NodeType& transform_node_type() {
       .category = NodeCategory::warp,
       .min_children = 1,
       .max_children = 1,
-      .summary = "places its child: translate, rotate (degrees), scale; elevation_scale and "
-                 "elevation_offset change its heights",
+      .summary =
+          "places its child: translate, rotate (degrees), scale; elevation_scale and "
+          "elevation_offset change its heights",
       .parse = parse_transform,
       .kernels = {.warp_points = transform_points,
                   .warp_field = transform_field,

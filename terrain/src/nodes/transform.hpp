@@ -13,8 +13,8 @@ const NodeType& transform_node_type();
 
 /// Pool layout of a transform (the compiler composes two of them).
 struct AffineParams {
-  float inverse[6];   ///< q = A p + b: a00 a01 a10 a11 b0 b1 (parent → child)
-  float forward[6];   ///< p = F q + g (child → parent)
+  float inverse[6];  ///< q = A p + b: a00 a01 a10 a11 b0 b1 (parent → child)
+  float forward[6];  ///< p = F q + g (child → parent)
   float elevation_scale;
   float elevation_offset;
   float inverse_norm;  ///< spectral norm of A

@@ -83,9 +83,8 @@ NodeBounds warp_bounds(const float* params, const NodeBounds& child) {
   const noise::FractalParams p = component(params, 1);
   const float octaves = static_cast<float>(p.octaves);
   NodeBounds out = child;
-  out.support = child.support.empty()
-                    ? child.support
-                    : child.support.expanded(displacement_bound(p, octaves));
+  out.support = child.support.empty() ? child.support
+                                      : child.support.expanded(displacement_bound(p, octaves));
   const float stretch = 1.0f + std::sqrt(2.0f) * noise::fractal_lipschitz(p, octaves, 0.0f);
   out.elevation_lipschitz = child.elevation_lipschitz * stretch;
   out.weight_lipschitz = child.weight_lipschitz * stretch;
