@@ -78,6 +78,45 @@ std::string type_name(const ::testing::TestParamInfo<const NodeType*>& info) {
 
 INSTANTIATE_TEST_SUITE_P(Registry, EveryNodeType, ::testing::ValuesIn(node_types()), type_name);
 
+// An image mapped along a curve (Génevaux Fig 9): u along the arc length, v across the width.
+const char* kImageAlongCurve = R"({"root": {"type": "image", "image": "canyon.png",
+  "curve": {"pieces": [[[-1200, 0, 0], [-400, 500, 0], [300, 0, 0]], [[300, 0, 0], [1000, -500, 0], [1500, 200, 0]]],
+            "width": 400},
+  "elevation": -60, "height_scale": 120, "margin": 0.15}})";
+
+TEST(ImagePrimitive, AlongACurveHasExactGradientsAndHoldsItsBounds) {
+  const Scene scene = parse_example(kImageAlongCurve);
+  testing::expect_gradients_match(scene, 400);
+  testing::expect_bounds_hold(scene, 40, 30);
+  testing::expect_program_equals_tree(scene, 300);
+}
+
+TEST(ImagePrimitive, FollowsTheCurve) {
+  const Scene scene = parse_example(kImageAlongCurve);
+  // On the skeleton (v = 0.5) the weight is full well inside the curve; far off it, zero.
+  EXPECT_NEAR(evaluate_tree(scene, {300, 0}).weight, 1.0f, 1e-4f);
+  EXPECT_EQ(evaluate_tree(scene, {300, 900}).weight, 0.0f);
+}
+
+TEST(ImagePrimitive, NeedsExactlyOneMapping) {
+  ParseOptions options;
+  options.images = synthetic_image;
+  Result<Scene> both = parse_scene_text(R"({"root": {"type": "image", "image": "a.png",
+    "corners": [[0, 1], [1, 1], [1, 0], [0, 0]], "curve": {"pieces": [[[0, 0, 0], [1, 0, 0]]], "width": 1}}})", options);
+  ASSERT_FALSE(both.ok());
+  EXPECT_EQ(both.error().pointer, "/root/corners");
+  Result<Scene> no_store = parse_scene_text(R"({"root": {"type": "image", "image": "a.png",
+    "corners": [[0, 1], [1, 1], [1, 0], [0, 0]]}})");
+  ASSERT_FALSE(no_store.ok());
+  EXPECT_EQ(no_store.error().pointer, "/root/image");
+  options.images = [](std::string_view) -> Result<Raster> { return Error{"no such file", ""}; };
+  Result<Scene> missing = parse_scene_text(R"({"root": {"type": "image", "image": "gone.png",
+    "corners": [[0, 1], [1, 1], [1, 0], [0, 0]]}})", options);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.error().pointer, "/root/image");
+  EXPECT_NE(missing.error().message.find("gone.png"), std::string::npos);
+}
+
 TEST(NodeRegistry, IdsAndNamesAreUnique) {
   std::set<std::uint16_t> ids;
   std::set<std::string_view> names;

@@ -1,8 +1,11 @@
 #include "nodes/image.hpp"
 
 #include <array>
+#include <cmath>
+#include <optional>
 
 #include "field_reader.hpp"
+#include "nodes/skeleton_spec.hpp"
 #include "nodes/stored_bounds.hpp"
 #include "terrain/heightfield.hpp"
 #include "terrain/scene.hpp"
@@ -10,31 +13,59 @@
 namespace terrain {
 namespace {
 
-// Pool: 0 λ_f, 1 λ_α, 2 h_lo, 3 h_hi, 4..7 support box, 8 quad record offset, 9 heightfield record
-// offset (both relative to the node's first float), then the two records.
-constexpr int kLipschitz = 0, kWeightLipschitz = 1, kLo = 2, kHi = 3, kBox = 4, kQuad = 8,
-              kField = 9, kHeader = 10;
+// Pool: 0 λ_f, 1 λ_α, 2 h_lo, 3 h_hi, 4..7 support box, 8 mapping record offset (a quad, or a
+// polyline), 9 heightfield record offset (both relative to the node's first float), 10 mapping
+// (0 quad, 1 curve), 11 width across the curve, 12 curve length; then the two records.
+constexpr int kLipschitz = 0, kWeightLipschitz = 1, kLo = 2, kHi = 3, kBox = 4, kMapping = 8,
+              kField = 9, kMode = 10, kWidth = 11, kLength = 12;
+
+// The quadrangle mapping: corners north-west, north-east, south-east, south-west of the image.
+Result<QuadMap> read_corners(FieldReader& reader) {
+  std::array<Vec2, 4> corners{};
+  const nlohmann::json* raw = reader.raw("corners");
+  nlohmann::json canonical = nlohmann::json::array();
+  if (!raw->is_array() || raw->size() != 4) {
+    reader.fail("must be four corners [[x, y], …]: north-west, north-east, south-east, south-west",
+                "corners");
+    return reader.error();
+  }
+  for (std::size_t k = 0; k < 4; ++k) {
+    const nlohmann::json& c = (*raw)[k];
+    if (!c.is_array() || c.size() != 2 || !c[0].is_number() || !c[1].is_number() ||
+        !std::isfinite(c[0].get<double>()) || !std::isfinite(c[1].get<double>())) {
+      return Error{"must be a point [x, y]", pointer_join(reader.pointer() + "/corners", k)};
+    }
+    corners[k] = {static_cast<float>(c[0].get<double>()), static_cast<float>(c[1].get<double>())};
+    canonical.push_back({c[0].get<double>(), c[1].get<double>()});
+  }
+  reader.canonical()["corners"] = canonical;
+  Result<QuadMap> quad = QuadMap::create(corners[0], corners[1], corners[2], corners[3]);
+  if (!quad) return Error{quad.error().message, pointer_join(reader.pointer(), "corners")};
+  return quad;
+}
 
 Result<NodeParams> parse_image(FieldReader& reader, ParseContext& context) {
   const std::string reference = reader.string("image", std::nullopt);
-  std::array<Vec2, 4> corners{};
-  const nlohmann::json* raw = reader.raw("corners");
-  nlohmann::json canonical_corners = nlohmann::json::array();
-  if (raw == nullptr || !raw->is_array() || raw->size() != 4) {
-    reader.fail("must be four corners [[x, y], …]: north-west, north-east, south-east, south-west",
-                "corners");
-  } else {
-    for (std::size_t k = 0; k < 4; ++k) {
-      const nlohmann::json& c = (*raw)[k];
-      if (!c.is_array() || c.size() != 2 || !c[0].is_number() || !c[1].is_number() ||
-          !std::isfinite(c[0].get<double>()) || !std::isfinite(c[1].get<double>())) {
-        return Error{"must be a point [x, y]", pointer_join(reader.pointer() + "/corners", k)};
-      }
-      corners[k] = {static_cast<float>(c[0].get<double>()), static_cast<float>(c[1].get<double>())};
-      canonical_corners.push_back({c[0].get<double>(), c[1].get<double>()});
-    }
+  if (reader.has("corners") == reader.has("curve")) {
+    reader.fail("give either corners (a quadrangle) or curve (along a skeleton)", "corners");
+    return reader.error();
   }
-  reader.canonical()["corners"] = canonical_corners;
+  std::optional<QuadMap> quad;
+  std::optional<Polyline> skeleton;
+  float width = 0.0f;
+  if (reader.has("corners")) {
+    Result<QuadMap> q = read_corners(reader);
+    if (!q) return q.error();
+    quad = *q;
+  } else {
+    FieldReader curve = reader.nested("curve");
+    Result<Polyline> line = read_skeleton(curve);
+    if (!line) return line.error();
+    width = static_cast<float>(curve.number("width", std::nullopt, {0.0, 1e6, true}));
+    reader.adopt("curve", curve);
+    if (!reader.ok()) return reader.error();
+    skeleton = std::move(*line);
+  }
   HeightfieldParams hp;
   hp.offset = static_cast<float>(reader.number("elevation", 0.0, {-1e5, 1e5}));
   hp.scale = static_cast<float>(reader.number("height_scale", 1.0, {-1e5, 1e5}));
@@ -55,12 +86,19 @@ Result<NodeParams> parse_image(FieldReader& reader, ParseContext& context) {
   }
   Result<Heightfield> field = Heightfield::create(*raster, hp);
   if (!field) return Error{"image '" + reference + "': " + field.error().message, image_pointer};
-  Result<QuadMap> quad = QuadMap::create(corners[0], corners[1], corners[2], corners[3]);
-  if (!quad) return Error{quad.error().message, pointer_join(reader.pointer(), "corners")};
 
+  // |∇h| = |h_u ∇u + h_v ∇v|: through the quad's inverse Jacobian, or along the curve where
+  // |∇u| ≤ 1/length (∇s is a unit tangent or 0) and |∇v| = 1/width.
+  float stretch = 0.0f;
+  Box2 box;
+  if (quad) {
+    stretch = quad->inverse_jacobian_bound();
+    box = quad->bounds();
+  } else {
+    stretch = std::sqrt(1.0f / (skeleton->length() * skeleton->length()) + 1.0f / (width * width));
+    box = skeleton->bounds().expanded(0.5f * width);
+  }
   NodeParams out;
-  const float stretch = quad->inverse_jacobian_bound();
-  const Box2 box = quad->bounds();
   out.pool = {field->lipschitz() * stretch,
               field->weight_lipschitz() * stretch,
               field->height_range().lo,
@@ -70,21 +108,41 @@ Result<NodeParams> parse_image(FieldReader& reader, ParseContext& context) {
               box.hi.x,
               box.hi.y,
               0.0f,
-              0.0f};
-  out.pool[kQuad] = static_cast<float>(out.pool.size());
-  quad->pack(out.pool);
+              0.0f,
+              quad ? 0.0f : 1.0f,
+              width,
+              skeleton ? skeleton->length() : 0.0f};
+  out.pool[kMapping] = static_cast<float>(out.pool.size());
+  if (quad) {
+    quad->pack(out.pool);
+  } else {
+    skeleton->pack(out.pool);
+  }
   out.pool[kField] = static_cast<float>(out.pool.size());
   field->pack(out.pool);
   out.canonical = reader.canonical();
-  (void)kHeader;
   return out;
 }
 
 void image_leaf(const float* params, const PointBlock& points, FieldBlock& out) {
-  const auto quad = static_cast<std::size_t>(params[kQuad]);
+  const auto mapping = static_cast<std::size_t>(params[kMapping]);
   const auto field = static_cast<std::size_t>(params[kField]);
+  const bool along_curve = params[kMode] != 0.0f;
+  const float inv_width = along_curve ? 1.0f / params[kWidth] : 0.0f;
+  const float inv_length = along_curve && params[kLength] > 0.0f ? 1.0f / params[kLength] : 0.0f;
   for (int i = 0; i < points.count; ++i) {
-    const UvMap m = quad_inverse(params, quad, {points.x[i], points.y[i]});
+    const Vec2 p{points.x[i], points.y[i]};
+    UvMap m;
+    if (along_curve) {
+      // u along the curve, v across it: row 0 (v = 0) on the left of the direction of travel.
+      const PolylineSample q = polyline_eval(params + mapping, p);
+      m.u = q.s * inv_length;
+      m.v = 0.5f - q.signed_distance * inv_width;
+      m.du = q.grad_s * inv_length;
+      m.dv = q.grad_d * -inv_width;
+    } else {
+      m = quad_inverse(params, mapping, p);
+    }
     const UvSample h = heightfield_height(params, field, m.u, m.v);
     const UvSample w = heightfield_weight(params, field, m.u, m.v);
     const Vec2 gh = chain(h, m);
@@ -112,7 +170,8 @@ const NodeType& image_node_type() {
       .category = NodeCategory::primitive,
       .min_children = 0,
       .max_children = 0,
-      .summary = "a heightfield image (16-bit PNG, float TIFF, EXR) on a convex quadrangle",
+      .summary = "a heightfield image (16-bit PNG, float TIFF, EXR) on a convex quadrangle or "
+                 "along a curve",
       .parse = parse_image,
       .kernels = {.leaf = image_leaf, .leaf_bounds = image_bounds},
       .example_json = R"({"type": "image", "image": "mountain.png",
