@@ -906,7 +906,7 @@ TERRAIN_NOISE_INLINE void chunk2(const Plan& plan, std::size_t count, const floa
   }
 }
 
-[[gnu::target_clones("avx2", "default")]] void fractal2_batch(const Plan& plan, const float* x,
+[[gnu::target_clones("avx512f", "avx2", "default")]] void fractal2_batch(const Plan& plan, const float* x,
                                                               const float* y, std::size_t n,
                                                               float* value, float* dx, float* dy) {
   alignas(32) float cx[kChunk], cy[kChunk], cv[kChunk], cdx[kChunk], cdy[kChunk];
@@ -993,7 +993,7 @@ TERRAIN_NOISE_INLINE void chunk3(const Plan& plan, std::size_t count, const floa
   }
 }
 
-[[gnu::target_clones("avx2", "default")]] void fractal3_batch(const Plan& plan, const float* x,
+[[gnu::target_clones("avx512f", "avx2", "default")]] void fractal3_batch(const Plan& plan, const float* x,
                                                               const float* y, const float* z,
                                                               std::size_t n, float* value,
                                                               float* dx, float* dy, float* dz) {
