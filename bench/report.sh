@@ -17,7 +17,7 @@ print(f"Machine: {ctx.get('num_cpus')} CPUs at {ctx.get('mhz_per_cpu')} MHz, run
 print("| Benchmark | Time per iteration | Throughput |")
 print("|---|---|---|")
 for b in data["benchmarks"]:
-    rate = b.get("items_per_second")
+    rate = b.get("items_per_second") or b.get("evals/s")
     unit = b.get("time_unit", "ns")
     rate_text = f"{rate / 1e6:.2f} M/s" if rate else ""
     print(f"| {b['name']} | {b['real_time']:.1f} {unit} | {rate_text} |")

@@ -28,14 +28,7 @@ const Loaded& load(const std::string& name) {
   static std::map<std::string, Loaded> cache;
   auto it = cache.find(name);
   if (it != cache.end()) return it->second;
-  std::ifstream in(kScenes / (name + ".json"));
-  std::stringstream text;
-  text << in.rdbuf();
-  ParseOptions options;
-  options.images = [](std::string_view ref) {
-    return read_heightfield((kScenes / std::string(ref)).string());
-  };
-  Scene scene = parse_scene_text(text.str(), options).value();
+  Scene scene = load_scene_file((kScenes / (name + ".json")).string()).value();
   Program program = compile(scene).value();
   return cache.emplace(name, Loaded{std::move(scene), std::move(program)}).first->second;
 }

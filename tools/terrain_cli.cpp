@@ -4,8 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <map>
 #include <optional>
@@ -83,19 +81,7 @@ std::optional<double> to_number(const std::string& text) {
 }
 
 std::optional<Scene> load_scene(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    std::cerr << "terrain: cannot read " << path << "\n";
-    return std::nullopt;
-  }
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
-  ParseOptions options;
-  options.images = [folder](std::string_view reference) -> Result<Raster> {
-    return read_heightfield((folder / std::string(reference)).string());
-  };
-  Result<Scene> scene = parse_scene_text(text.str(), options);
+  Result<Scene> scene = load_scene_file(path);
   if (!scene) {
     std::cerr << path << ": "
               << (scene.error().pointer.empty() ? "(document)" : scene.error().pointer) << ": "

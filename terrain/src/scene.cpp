@@ -4,7 +4,10 @@
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <set>
+#include <sstream>
 
 #include "field_reader.hpp"
 #include "terrain/evaluate.hpp"
@@ -254,6 +257,20 @@ Result<Scene> SceneParser::parse() {
 Result<Scene> parse_scene(const nlohmann::json& document, const ParseOptions& options) {
   SceneParser parser(document, options);
   return parser.parse();
+}
+
+Result<Scene> load_scene_file(const std::string& path, ParseOptions options) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Error{"cannot read " + path, ""};
+  std::stringstream text;
+  text << in.rdbuf();
+  if (!options.images) {
+    const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+    options.images = [folder](std::string_view reference) -> Result<Raster> {
+      return read_heightfield((folder / std::string(reference)).string());
+    };
+  }
+  return parse_scene_text(text.str(), options);
 }
 
 Result<Scene> parse_scene_text(std::string_view text, const ParseOptions& options) {

@@ -27,14 +27,11 @@ std::vector<std::string> scene_names() {
 }
 
 Scene load(const std::string& name) {
-  std::ifstream in(kScenes / (name + ".json"));
-  std::stringstream text;
-  text << in.rdbuf();
-  ParseOptions options;
-  options.images = [](std::string_view ref) {
-    return read_heightfield((kScenes / std::string(ref)).string());
-  };
-  return testing::parse_or_die(text.str(), options);
+  Result<Scene> scene = load_scene_file((kScenes / (name + ".json")).string());
+  EXPECT_TRUE(scene.ok()) << (scene.ok() ? ""
+                                         : scene.error().pointer + ": " + scene.error().message);
+  if (!scene.ok()) throw std::runtime_error("scene did not load");
+  return std::move(scene).value();
 }
 
 int primitive_count(const Node& node) {

@@ -67,6 +67,10 @@ Result<Scene> parse_scene(const nlohmann::json& document, const ParseOptions& op
 /// The same from text (JSON syntax errors are reported with their byte offset).
 Result<Scene> parse_scene_text(std::string_view text, const ParseOptions& options = {});
 
+/// Reads and parses a scene file; images it references are read relative to the file's folder
+/// unless `options.images` is already set. Unreadable files are errors with an empty pointer.
+Result<Scene> load_scene_file(const std::string& path, ParseOptions options = {});
+
 /// Hex SHA-256 of a byte string.
 std::string sha256_hex(std::string_view bytes);
 

@@ -170,8 +170,9 @@ const NodeType& image_node_type() {
       .category = NodeCategory::primitive,
       .min_children = 0,
       .max_children = 0,
-      .summary = "a heightfield image (16-bit PNG, float TIFF, EXR) on a convex quadrangle or "
-                 "along a curve",
+      .summary =
+          "a heightfield image (16-bit PNG, float TIFF, EXR) on a convex quadrangle or "
+          "along a curve",
       .parse = parse_image,
       .kernels = {.leaf = image_leaf, .leaf_bounds = image_bounds},
       .example_json = R"({"type": "image", "image": "mountain.png",

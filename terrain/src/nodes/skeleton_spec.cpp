@@ -46,7 +46,6 @@ Result<Polyline> read_skeleton(FieldReader& reader) {
     return Error{polyline.error().message, reader.pointer() + polyline.error().pointer};
   }
   return polyline;
-
 }
 
 }  // namespace terrain
