@@ -213,6 +213,11 @@ NodeBounds Evaluator::bounds(const BoundsQuery& query) {
   return s.bounds.back();
 }
 
+const NodeBounds& Evaluator::global_bounds() {
+  if (!global_) global_ = bounds({Box2::everywhere(), 0.0f});
+  return *global_;
+}
+
 GridResult evaluate_grid(const Program& program, const GridSpec& grid, int threads) {
   GridResult result;
   result.width = grid.width;

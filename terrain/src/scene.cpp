@@ -130,7 +130,6 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
 
   auto node = std::make_shared<Node>();
   node->type = type;
-  node->pointer = pointer;
   nlohmann::json canonical = nlohmann::json::object();
   canonical["type"] = type->name;
   if (const auto id = j.find("id"); id != j.end()) {

@@ -48,7 +48,7 @@ Vec3 normalise(Vec3 v) {
 
 LipschitzGrid::LipschitzGrid(Evaluator& evaluator, const Box2& area, int cells)
     : area_(area), cells_(cells), spacings_{0.0f, 1.0f, 4.0f, 16.0f, 64.0f} {
-  global_ = evaluator.bounds({Box2::everywhere(), 0.0f}).elevation_lipschitz;
+  global_ = evaluator.global_bounds().elevation_lipschitz;
   const Vec2 size = area.size();
   for (float spacing : spacings_) {
     std::vector<float>& level = levels_.emplace_back(static_cast<std::size_t>(cells * cells));
@@ -99,7 +99,7 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
   if (span.empty()) return result;
   const float horizontal =
       std::sqrt(ray.direction.x * ray.direction.x + ray.direction.y * ray.direction.y);
-  const float global_lambda = evaluator.bounds({Box2::everywhere(), 0.0f}).elevation_lipschitz;
+  const float global_lambda = evaluator.global_bounds().elevation_lipschitz;
   float t = span.lo;
   float delta = options.initial_step;
   float last_lambda = global_lambda;

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "terrain/field.hpp"
@@ -26,6 +27,8 @@ class Evaluator {
   void evaluate(const PointBlock& block, FieldBlock& out);
   /// Bounds of the root over a box at a level of detail.
   NodeBounds bounds(const BoundsQuery& query);
+  /// Bounds of the root over the whole plane at full detail (computed once).
+  const NodeBounds& global_bounds();
 
   const Program& program() const { return program_; }
 
@@ -33,6 +36,7 @@ class Evaluator {
   struct Scratch;
   const Program& program_;
   std::unique_ptr<Scratch> scratch_;
+  std::optional<NodeBounds> global_;
 };
 
 /// A regular grid of samples: point (i, j) is origin + (i, j)·step; row j = 0 is the southern row.

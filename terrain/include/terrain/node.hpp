@@ -98,8 +98,7 @@ const NodeType* find_node_type(std::string_view name);
 /// A node of a parsed scene tree. Subtrees may be shared (instancing): the tree is a DAG.
 struct Node {
   const NodeType* type = nullptr;
-  std::string id;       ///< optional user label
-  std::string pointer;  ///< where it was defined in the scene JSON
+  std::string id;  ///< optional user label
   NodeParams params;
   std::vector<std::shared_ptr<const Node>> children;
 };
