@@ -80,7 +80,13 @@ std::optional<double> to_number(const std::string& text) {
   }
 }
 
-std::optional<Scene> load_scene(const std::string& path) {
+/// A scene file parsed and compiled; errors are printed with the file and JSON pointer.
+struct Loaded {
+  Scene scene;
+  Program program;
+};
+
+std::optional<Loaded> load(const std::string& path) {
   Result<Scene> scene = load_scene_file(path);
   if (!scene) {
     std::cerr << path << ": "
@@ -88,16 +94,12 @@ std::optional<Scene> load_scene(const std::string& path) {
               << scene.error().message << "\n";
     return std::nullopt;
   }
-  return std::move(scene).value();
-}
-
-std::optional<Program> compile_scene(const Scene& scene) {
-  Result<Program> program = compile(scene);
+  Result<Program> program = compile(*scene);
   if (!program) {
-    std::cerr << "terrain: " << program.error().pointer << ": " << program.error().message << "\n";
+    std::cerr << path << ": " << program.error().pointer << ": " << program.error().message << "\n";
     return std::nullopt;
   }
-  return std::move(program).value();
+  return Loaded{std::move(scene).value(), std::move(program).value()};
 }
 
 void progress_bar(float fraction) {
@@ -111,16 +113,15 @@ void progress_bar(float fraction) {
 }
 
 int cmd_validate(const Args& args) {
-  const auto scene = load_scene(args.positional.at(1));
-  if (!scene) return 1;
-  const auto program = compile_scene(*scene);
-  if (!program) return 1;
-  const NodeBounds& b = program->bounds;
+  const auto loaded = load(args.positional.at(1));
+  if (!loaded) return 1;
+  const auto& [scene, program] = *loaded;
+  const NodeBounds& b = program.bounds;
   std::cout << nlohmann::json{{"valid", true},
-                              {"name", scene->name},
-                              {"hash", scene->hash},
-                              {"instructions", program->code.size()},
-                              {"parameters", program->pool.size()},
+                              {"name", scene.name},
+                              {"hash", scene.hash},
+                              {"instructions", program.code.size()},
+                              {"parameters", program.pool.size()},
                               {"support",
                                {b.support.lo.x, b.support.lo.y, b.support.hi.x, b.support.hi.y}},
                               {"elevation", {b.elevation.lo, b.elevation.hi}},
@@ -141,11 +142,10 @@ int cmd_sample(const Args& args) {
     std::cerr << "terrain sample: X, Y and --lod must be numbers (lod ≥ 0)\n";
     return 2;
   }
-  const auto scene = load_scene(args.positional[1]);
-  if (!scene) return 1;
-  const auto program = compile_scene(*scene);
-  if (!program) return 1;
-  Evaluator e(*program);
+  const auto loaded = load(args.positional[1]);
+  if (!loaded) return 1;
+  const auto& [scene, program] = *loaded;
+  Evaluator e(program);
   const Vec2 p{static_cast<float>(*x), static_cast<float>(*y)};
   const FieldSample s = e.sample(p, static_cast<float>(*lod));
   const NodeBounds local = e.bounds({Box2::around(p, 1.0f), static_cast<float>(*lod)});
@@ -155,7 +155,7 @@ int cmd_sample(const Args& args) {
                               {"weight", s.weight},
                               {"gradient", {s.elevation_gradient.x, s.elevation_gradient.y}},
                               {"lipschitz_local", local.elevation_lipschitz},
-                              {"lipschitz_global", program->bounds.elevation_lipschitz}}
+                              {"lipschitz_global", program.bounds.elevation_lipschitz}}
                    .dump(2)
             << "\n";
   return 0;
@@ -182,11 +182,10 @@ int cmd_grid(const Args& args) {
     std::cerr << "terrain grid: needs -o OUT.tif|OUT.png and --size from 2 to 8192\n";
     return 2;
   }
-  const auto scene = load_scene(args.positional.at(1));
-  if (!scene) return 1;
-  const auto program = compile_scene(*scene);
-  if (!program) return 1;
-  Box2 area = scene->area();
+  const auto loaded = load(args.positional.at(1));
+  if (!loaded) return 1;
+  const auto& [scene, program] = *loaded;
+  Box2 area = scene.area();
   if (args.has("--area")) {
     const auto a = parse_area(args.get("--area", ""));
     if (!a) {
@@ -201,7 +200,7 @@ int cmd_grid(const Args& args) {
   if (args.has("--lod"))
     grid.lod_spacing = static_cast<float>(to_number(args.get("--lod", "0")).value_or(0));
   const auto start = std::chrono::steady_clock::now();
-  const GridResult result = evaluate_grid(*program, grid);
+  const GridResult result = evaluate_grid(program, grid);
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   // Images store row 0 at the top (north); the grid's row 0 is the south.
@@ -217,7 +216,7 @@ int cmd_grid(const Args& args) {
                       {"milliseconds", ms},
                       {"origin", {grid.origin_x, grid.origin_y}}};
   if (out.ends_with(".png")) {
-    const Interval z = program->bounds.elevation.hull(Interval::point(program->base_elevation));
+    const Interval z = program.bounds.elevation.hull(Interval::point(program.base_elevation));
     const float scale = z.width() > 0 ? z.width() / 65535.0f : 1.0f;
     std::vector<std::uint16_t> pixels(north_up.size());
     for (std::size_t i = 0; i < north_up.size(); ++i) {
@@ -247,20 +246,19 @@ int cmd_render(const Args& args) {
     std::cerr << "terrain render: needs -o OUT.png; --width/--height from 1 to 8192\n";
     return 2;
   }
-  const auto scene = load_scene(args.positional.at(1));
-  if (!scene) return 1;
-  const auto program = compile_scene(*scene);
-  if (!program) return 1;
-  const Box2 area = scene->area();
+  const auto loaded = load(args.positional.at(1));
+  if (!loaded) return 1;
+  const auto& [scene, program] = *loaded;
+  const Box2 area = scene.area();
   const Camera camera =
-      default_camera(*program, area, static_cast<int>(*width), static_cast<int>(*height));
+      default_camera(program, area, static_cast<int>(*width), static_cast<int>(*height));
   RenderOptions options;
   options.trace.accelerated = !args.has("--plain");
   if (args.has("--water"))
     options.water_level = static_cast<float>(to_number(args.get("--water", "0")).value_or(-1e9));
   options.progress = progress_bar;
   const auto start = std::chrono::steady_clock::now();
-  const Picture picture = render(*program, area, camera, options);
+  const Picture picture = render(program, area, camera, options);
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   const Status written = write_png_rgb8(out, picture.width, picture.height, picture.rgb.data());
@@ -278,11 +276,10 @@ int cmd_render(const Args& args) {
 }
 
 int cmd_program(const Args& args) {
-  const auto scene = load_scene(args.positional.at(1));
-  if (!scene) return 1;
-  const auto program = compile_scene(*scene);
-  if (!program) return 1;
-  std::cout << program->to_json().dump(2) << "\n";
+  const auto loaded = load(args.positional.at(1));
+  if (!loaded) return 1;
+  const auto& [scene, program] = *loaded;
+  std::cout << program.to_json().dump(2) << "\n";
   return 0;
 }
 
