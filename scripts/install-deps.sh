@@ -7,6 +7,8 @@ packages=(
   build-essential cmake ninja-build pkg-config
   nlohmann-json3-dev libssl-dev libopenimageio-dev openimageio-tools
   libgtest-dev libgmock-dev libbenchmark-dev
+  libdraco-dev libgeographiclib-dev zlib1g-dev libtiff-dev
+  gdal-bin nodejs
 )
 
 missing=()
@@ -14,10 +16,19 @@ for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 
+# Node.js from some other source (NodeSource) ships its own npm, which Debian's npm conflicts with.
+command -v npm >/dev/null 2>&1 || missing+=(npm)
+
 if [ ${#missing[@]} -gt 0 ]; then
   echo "Installing: ${missing[*]}"
   sudo_cmd=""
   [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
   $sudo_cmd apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+# JavaScript tools the tests use (the glTF validator), pinned by package-lock.json, installed once.
+repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+if [ -f "$repo_root/package-lock.json" ] && [ ! -d "$repo_root/node_modules" ]; then
+  (cd "$repo_root" && npm ci --no-audit --no-fund --loglevel=error)
 fi
