@@ -54,6 +54,7 @@ def hills_river():
     write("hills-river", {
         "name": "Hills crossed by a river (Génevaux Fig. 3)", "seed": 3,
         "extent": {"min": [-3000, -3000], "max": [3000, 3000]},
+        "georeference": {"latitude": 45.9237, "longitude": 6.8694, "heading": 0},
         "root": {"type": "replace", "children": [{"type": "blend", "children": hills}, river]}})
 
 
@@ -73,7 +74,9 @@ def craters():
                   "falloff": 1.7}
         node = {"type": "replace", "children": [node, crater]}
     write("craters", {"name": "Craters by replacement (Génevaux Fig. 12)", "seed": 12,
-                      "extent": {"min": [-2800, -2800], "max": [2800, 2800]}, "root": node})
+                      "extent": {"min": [-2800, -2800], "max": [2800, 2800]},
+                      "georeference": {"latitude": 35.0275, "longitude": -111.0225, "heading": 0},
+                      "root": node})
 
 
 def ground(x, y):
@@ -125,6 +128,7 @@ def winding_road():
         # Where the hills leave gaps, the blend falls back to this level: the mean ground height.
         "base_elevation": 150,
         "extent": {"min": [-3600, -3600], "max": [3600, 3600]},
+        "georeference": {"latitude": 43.7034, "longitude": 7.2663, "heading": 0},
         "root": {"type": "replace", "children": [{"type": "blend", "children": discs + helpers}, road]}})
 
 
@@ -148,6 +152,11 @@ def lake_dunes():
     write("lake-dunes", {
         "name": "A lake and dunes (Génevaux Fig. 21)", "seed": 21,
         "extent": {"min": [-3000, -3000], "max": [3000, 3000]},
+        "georeference": {"latitude": 44.5886, "longitude": -1.2131, "heading": 0},
+        # The water layer (Génevaux Fig. 20): a level surface over the lake; the water mask is
+        # where it has weight and lies above the ground.
+        "water": {"type": "disc", "id": "lake-water", "center": [-500, -300], "radius": 3200,
+                  "elevation": 108},
         "root": {"type": "add", "children": [{"type": "replace", "children": [land, lake]}, dunes]}})
 
 
@@ -173,6 +182,7 @@ def mountain_range():
     write("mountain-range", {
         "name": "A range of thirty instanced, warped mountains (Génevaux Fig. 23)", "seed": 23,
         "extent": {"min": [-4500, -4500], "max": [4500, 4500]},
+        "georeference": {"latitude": 46.5375, "longitude": 7.9625, "heading": 15},
         "definitions": {"mountain": mountain},
         "root": {"type": "blend", "children": [valley] + instances}})
 
@@ -215,6 +225,7 @@ def mesa_image():
     write("butte", {
         "name": "A butte from a heightfield image, sand ripples by level of detail (Génevaux Figs. 8, 16)",
         "seed": 8, "extent": {"min": [-2000, -2000], "max": [2000, 2000]},
+        "georeference": {"latitude": 36.9980, "longitude": -110.0985, "heading": 0},
         "root": {"type": "add", "children": [
             {"type": "replace", "weight": "keep", "children": [desert, butte]}, ripples]}})
 

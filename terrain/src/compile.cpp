@@ -1,6 +1,7 @@
 #include <openssl/evp.h>
 
 #include <algorithm>
+#include <cassert>
 #include <map>
 
 #include "nodes/transform.hpp"
@@ -14,17 +15,18 @@ class Compiler {
  public:
   explicit Compiler(const CompileOptions& options) : options_(options) {}
 
-  Result<Program> run(const Scene& scene) {
+  Result<Program> run(const Scene& scene, const Node& root, const NodeBounds& bounds,
+                      const char* pointer) {
     program_.base_elevation = scene.base_elevation;
     program_.scene_hash = scene.hash;
-    program_.bounds = scene.bounds;
-    emit(*scene.root, /*cullable=*/false);
+    program_.bounds = bounds;
+    emit(root, /*cullable=*/false);
     program_.max_field_depth = max_depth_;
     program_.max_frame_depth = max_frames_;
     if (program_.pool.size() > scene_limits_.max_pool_floats) {
       return Error{"the compiled scene needs " + std::to_string(program_.pool.size()) +
                        " parameters, more than the limit",
-                   "/root"};
+                   pointer};
     }
     return std::move(program_);
   }
@@ -187,7 +189,13 @@ nlohmann::json bounds_json(const NodeBounds& b) {
 
 Result<Program> compile(const Scene& scene, const CompileOptions& options) {
   Compiler compiler(options);
-  return compiler.run(scene);
+  return compiler.run(scene, *scene.root, scene.bounds, "/root");
+}
+
+Result<Program> compile_water(const Scene& scene, const CompileOptions& options) {
+  assert(scene.water != nullptr);
+  Compiler compiler(options);
+  return compiler.run(scene, *scene.water, scene.water_bounds, "/water");
 }
 
 nlohmann::json Program::to_json() const {

@@ -223,6 +223,7 @@ Result<Scene> SceneParser::parse() {
   }
   const nlohmann::json* root = reader.raw("root");
   if (root == nullptr) reader.fail("is required", "root");
+  const nlohmann::json* water = reader.raw("water");
   reader.reject_unknown();
   if (!reader.ok()) return reader.error();
 
@@ -246,6 +247,13 @@ Result<Scene> SceneParser::parse() {
   canonical["root"] = parsed_root->canonical;
   scene.root = parsed_root->node;
   scene.bounds = tree_bounds(*scene.root, {});
+  if (water != nullptr) {
+    Result<ParsedNode> parsed_water = parse_node(*water, "/water", 1);
+    if (!parsed_water) return parsed_water.error();
+    canonical["water"] = parsed_water->canonical;
+    scene.water = parsed_water->node;
+    scene.water_bounds = tree_bounds(*scene.water, {});
+  }
   scene.canonical = std::move(canonical);
   scene.hash = "sha256:" + sha256_hex(scene.canonical_text());
   return scene;

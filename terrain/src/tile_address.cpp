@@ -8,9 +8,12 @@ namespace terrain {
 
 std::string_view scheme_name(TileScheme scheme) {
   switch (scheme) {
-    case TileScheme::local: return "local";
-    case TileScheme::webmercator: return "webmercator";
-    case TileScheme::geographic: return "geographic";
+    case TileScheme::local:
+      return "local";
+    case TileScheme::webmercator:
+      return "webmercator";
+    case TileScheme::geographic:
+      return "geographic";
   }
   assert(false && "unknown scheme");
   return "local";
@@ -25,7 +28,9 @@ Result<TileScheme> parse_scheme(std::string_view name) {
                "/scheme"};
 }
 
-int max_zoom(TileScheme scheme) { return scheme == TileScheme::geographic ? 23 : 24; }
+int max_zoom(TileScheme scheme) {
+  return scheme == TileScheme::geographic ? 23 : 24;
+}
 
 std::int64_t columns_at(TileScheme scheme, int z) {
   assert(z >= 0 && z <= max_zoom(scheme));
@@ -46,8 +51,8 @@ Status validate_address(TileScheme scheme, const TileAddress& a) {
   }
   const std::int64_t columns = columns_at(scheme, a.z), rows = rows_at(scheme, a.z);
   if (a.x < 0 || a.x >= columns) {
-    return Error{"column " + std::to_string(a.x) + " is outside 0.." +
-                     std::to_string(columns - 1) + " at zoom " + std::to_string(a.z),
+    return Error{"column " + std::to_string(a.x) + " is outside 0.." + std::to_string(columns - 1) +
+                     " at zoom " + std::to_string(a.z),
                  "/x"};
   }
   if (a.y < 0 || a.y >= rows) {
@@ -77,17 +82,17 @@ std::int64_t rows_from_north(const HeightTile& tile) {
 }  // namespace
 
 double HeightTile::sample_crs_x(int column) const {
-  const double step = (world.east - world.west) /
-                      static_cast<double>(columns_at(scheme, address.z) * cells);
+  const double step =
+      (world.east - world.west) / static_cast<double>(columns_at(scheme, address.z) * cells);
   const double global = static_cast<double>(address.x * cells) + column + sample_offset(*this);
   return world.west + global * step;
 }
 
 double HeightTile::sample_crs_y(int row) const {
-  const double step = (world.north - world.south) /
-                      static_cast<double>(rows_at(scheme, address.z) * cells);
-  const double global = static_cast<double>(rows_from_north(*this) * cells) + row +
-                        sample_offset(*this);
+  const double step =
+      (world.north - world.south) / static_cast<double>(rows_at(scheme, address.z) * cells);
+  const double global =
+      static_cast<double>(rows_from_north(*this) * cells) + row + sample_offset(*this);
   return world.north - global * step;
 }
 

@@ -10,8 +10,8 @@ namespace terrain {
 
 /// A triangulation of an n×n grid of samples (row 0 north, column 0 west).
 struct TileMesh {
-  int grid_size = 0;                    ///< n = 2^k + 1
-  std::vector<std::uint32_t> vertices;  ///< grid indices (row·n + column), each used once
+  int grid_size = 0;                     ///< n = 2^k + 1
+  std::vector<std::uint32_t> vertices;   ///< grid indices (row·n + column), each used once
   std::vector<std::uint32_t> triangles;  ///< 3 indices into `vertices` per triangle,
                                          ///< counter-clockwise seen from above (east, north, up)
 };

@@ -59,5 +59,7 @@ struct CompileOptions {
 
 /// Flattens a scene's tree into a program. Fails only on limits (depth, size).
 Result<Program> compile(const Scene& scene, const CompileOptions& options = {});
+/// Compiles the scene's water layer (Scene::water, which must be present).
+Result<Program> compile_water(const Scene& scene, const CompileOptions& options = {});
 
 }  // namespace terrain

@@ -51,8 +51,12 @@ struct Scene {
   std::optional<Box2> extent;   ///< the declared square of interest (tiles cover it)
   Georeference georeference;
   NodePtr root;
+  /// Optional water layer (Génevaux Fig. 20): a second tree whose elevation is the water surface
+  /// and whose weight marks where water is (weight ≥ 0.5 and surface above the terrain).
+  NodePtr water;
   std::map<std::string, NodePtr, std::less<>> definitions;
   NodeBounds bounds;         ///< global bounds of the root at full detail
+  NodeBounds water_bounds;   ///< global bounds of the water layer, when there is one
   nlohmann::json canonical;  ///< canonical JSON (defaults explicit), what serialise() writes
   std::string hash;          ///< "sha256:<hex>" of canonical_text()
 

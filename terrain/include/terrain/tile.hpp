@@ -66,14 +66,14 @@ struct HeightTile {
   TileScheme scheme = TileScheme::local;
   TileAddress address;
   SampleLayout layout = SampleLayout::cell_centres;
-  int cells = 256;  ///< N: the division of the tile (samples per side without border)
-  int border = 0;   ///< 0 or 1 extra sample on every side (cell_centres only)
-  int width = 0;    ///< samples per row including border: N + 2·border, or N + 1 for corners
-  int height = 0;   ///< rows, equal to width
+  int cells = 256;    ///< N: the division of the tile (samples per side without border)
+  int border = 0;     ///< 0 or 1 extra sample on every side (cell_centres only)
+  int width = 0;      ///< samples per row including border: N + 2·border, or N + 1 for corners
+  int height = 0;     ///< rows, equal to width
   TileBounds world;   ///< footprint of the whole zoom-0 grid (local: the scene's square)
   TileBounds bounds;  ///< the tile's own footprint (without border)
-  double ground_spacing = 0.0;   ///< metres between neighbouring samples (the LoD spacing)
-  std::vector<float> elevation;  ///< metres, width·height, index row·width + column
+  double ground_spacing = 0.0;     ///< metres between neighbouring samples (the LoD spacing)
+  std::vector<float> elevation;    ///< metres, width·height, index row·width + column
   std::vector<float> slope_east;   ///< ∂h/∂east (dimensionless), same layout
   std::vector<float> slope_north;  ///< ∂h/∂north (dimensionless), same layout
   std::vector<double> scene_x;     ///< scene-plane position of each sample (metres)

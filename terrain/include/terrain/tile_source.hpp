@@ -1,0 +1,129 @@
+// Height tiles from a scene: where each sample of a tile address lies in the scene's plane, and
+// the evaluation of the compiled program there at the level of detail the tile's spacing asks for.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "terrain/evaluate.hpp"
+#include "terrain/program.hpp"
+#include "terrain/scene.hpp"
+#include "terrain/tile.hpp"
+
+namespace terrain {
+
+/// Maps points of the WGS84 ellipsoid to the scene plane: the plane is tangent to the ellipsoid
+/// at the georeference point (latitude, longitude, height 0), a point's scene position is its
+/// east/north offset in that plane (GeographicLib's local-cartesian frame with the "up" component
+/// dropped, i.e. an orthographic projection), rotated so that scene +y points `heading` degrees
+/// clockwise from north. Distances within 100 km of the origin are kept to better than 0.1 %.
+class GeoFrame {
+ public:
+  explicit GeoFrame(const Georeference& georeference);
+
+  /// Angular distance from the origin beyond which points are not mapped: the orthographic
+  /// projection folds the far side of the globe onto the near side, so positions there would
+  /// repeat the scene. Such points lie at the scene's base level.
+  static constexpr double kMaxAngleDegrees = 60.0;
+
+  /// Scene position of (latitude, longitude) in degrees; false beyond kMaxAngleDegrees.
+  bool to_scene(double latitude, double longitude, double& x, double& y) const;
+  /// Latitude and longitude (degrees) of a scene position: the ellipsoid point that projects to
+  /// it, on the near side.
+  void to_geographic(double x, double y, double& latitude, double& longitude) const;
+
+  /// Rotates a scene-plane gradient (∂/∂x, ∂/∂y) into (∂/∂east, ∂/∂north).
+  void scene_to_east_north(float gx, float gy, float& east, float& north) const;
+
+  const Georeference& georeference() const { return georeference_; }
+
+ private:
+  friend class TileGenerator;
+  struct Row {         // the per-latitude part of a geodetic → ECEF conversion (height 0)
+    double cos_lat_n;  // N(φ) cos φ
+    double z;          // N(φ)(1 − e²) sin φ
+  };
+  Row row(double latitude) const;
+  bool project(const Row& r, double cos_lon, double sin_lon, double& x, double& y) const;
+
+  Georeference georeference_;
+  double origin_[3];  // ECEF of the origin
+  double east_[3], north_[3], up_[3];
+  double cos_heading_ = 1.0, sin_heading_ = 0.0;
+  double min_up_ = 0.0;  // "up" offset at kMaxAngleDegrees
+};
+
+/// What a scene's tiles are made of.
+struct TileSource {
+  std::shared_ptr<const Program> terrain;
+  std::shared_ptr<const Program> water;  ///< the scene's water layer, or null
+  TileBounds local_square;  ///< the local scheme's zoom-0 tile: the scene's area made square
+  Georeference georeference;
+  float base_elevation = 0.0f;
+  Interval elevation_range;  ///< a bound of every tile's heights (with the base level)
+
+  /// Compiles the scene's terrain and water trees.
+  static Result<TileSource> from_scene(const Scene& scene);
+};
+
+/// What to sample.
+struct TileRequest {
+  TileScheme scheme = TileScheme::local;
+  TileAddress address;
+  SampleLayout layout = SampleLayout::cell_centres;
+  int cells = 256;  ///< cell_centres: 256 or 512 (also 64, 128); cell_corners: 2..512, 2^k
+  int border = 0;   ///< cell_centres only
+};
+
+/// Checks the address and the sizes; the error's pointer names the field ("/z", "/cells", ...).
+Status validate_request(const TileRequest& request);
+
+/// The zoom-0 footprint of a scheme in its own coordinates (local: the source's square).
+TileBounds world_bounds(const TileSource& source, TileScheme scheme);
+
+/// Metres between neighbouring samples of a tile at zoom z with `cells` cells per side: the
+/// level of detail. It depends on (scheme, z, cells) only, never on the tile's position, so that
+/// neighbours evaluate shared samples at the same level of detail (webmercator and geographic
+/// use the ground spacing at the georeference latitude).
+double ground_spacing(const TileSource& source, TileScheme scheme, int z, int cells);
+
+/// A tile range at one zoom level, inclusive.
+struct TileRange {
+  std::int64_t min_x = 0, min_y = 0, max_x = -1, max_y = -1;
+};
+/// The tiles at zoom z whose footprint meets the scene's area (its extent, or its support), in
+/// the scheme's own numbering; empty when the area lies outside the scheme's world.
+TileRange tiles_covering_area(const TileSource& source, TileScheme scheme, int z);
+
+/// Generates tiles. Holds evaluators, so it is not thread-safe: use one per thread.
+class TileGenerator {
+ public:
+  explicit TileGenerator(TileSource source);
+
+  const TileSource& source() const { return source_; }
+
+  /// Heights and slopes of a tile. Slopes are with respect to east and north; in the local
+  /// scheme "east" and "north" are the scene's +x and +y.
+  Result<HeightTile> height_tile(const TileRequest& request);
+
+  /// The water mask of a tile for quantized-mesh: 256×256 bytes, row 0 north, 255 where the
+  /// water layer has weight ≥ 0.5 and lies above the terrain, else 0; collapsed to one byte when
+  /// the whole tile is land (0) or water (255). A scene without a water layer gives {0}.
+  Result<std::vector<std::uint8_t>> water_mask(TileScheme scheme, const TileAddress& address);
+
+ private:
+  // Scene positions of every sample; `mapped` is 0 where the frame does not reach.
+  void place_samples(HeightTile& tile, std::vector<std::uint8_t>& mapped) const;
+  void evaluate(Evaluator& evaluator, const HeightTile& tile,
+                const std::vector<std::uint8_t>& mapped, float spacing,
+                std::vector<float>& elevation, std::vector<float>* gx, std::vector<float>* gy,
+                std::vector<float>* weight);
+
+  TileSource source_;
+  GeoFrame frame_;
+  Evaluator terrain_;
+  std::unique_ptr<Evaluator> water_;
+};
+
+}  // namespace terrain
