@@ -8,6 +8,7 @@ packages=(
   nlohmann-json3-dev libssl-dev libopenimageio-dev openimageio-tools
   libgtest-dev libgmock-dev libbenchmark-dev
   libdraco-dev libgeographiclib-dev zlib1g-dev libtiff-dev
+  libboost1.81-dev libtomlplusplus-dev libsqlite3-dev
   gdal-bin nodejs
 )
 

@@ -1,0 +1,77 @@
+// Server configuration: built-in defaults, then config/server.toml (or --config FILE), then
+// TERRAIN_* environment variables, then command-line flags. One table of options drives all
+// four sources and --help, so an option is declared once.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "terrain/result.hpp"
+
+namespace server {
+
+using terrain::Error;
+using terrain::Result;
+
+/// Which evaluator generates tiles (wired by the GPU backend).
+enum class Backend { automatic, gpu, cpu };
+
+struct Config {
+  // network
+  std::string address = "127.0.0.1";
+  int port = 8080;
+  int io_threads = 0;                     ///< 0 = one per core
+  std::vector<std::string> cors_origins;  ///< "*" allows any origin; empty = no CORS headers
+  // work
+  int generation_threads = 0;  ///< 0 = one per core
+  int queue_limit = 64;        ///< requests waiting for a generation thread before 503
+  double max_cost = 5.0e7;     ///< samples × program cost a request may ask for (else 422)
+  Backend backend = Backend::automatic;
+  // caches
+  std::int64_t cache_bytes = 256ll << 20;  ///< in-memory LRU budget
+  std::string disk_cache_dir;              ///< empty = no on-disk cache
+  std::int64_t disk_cache_bytes = 2ll << 30;
+  // storage
+  std::string data_dir = "data";             ///< holds terrain.sqlite3
+  std::string scenes_dir = "config/scenes";  ///< built-in scenes loaded on first start
+  std::string client_dir = "client_web";     ///< static files served at /
+  std::string write_token;  ///< required (Bearer) on every write; empty = writes refused
+  // limits
+  int header_limit = 8 * 1024;
+  std::int64_t scene_body_limit = 4ll << 20;
+  std::int64_t image_body_limit = 32ll << 20;
+  int header_timeout_ms = 10'000;
+  int body_timeout_ms = 30'000;
+  int request_timeout_ms = 60'000;
+  int idle_timeout_ms = 60'000;
+  // logging
+  std::string log_level = "info";  ///< error, warn, info, debug
+
+  std::string config_file;  ///< the file that was read, if any
+};
+
+/// The outcome of reading the command line: a configuration, or a request for help text.
+struct Startup {
+  Config config;
+  bool show_help = false;
+};
+
+/// Reads defaults, the TOML file (`--config FILE`, else `default_config_file` when it exists),
+/// the environment and the flags, in that order. Errors name the option and where it came from.
+Result<Startup> load_config(std::span<const std::string_view> args,
+                            const std::map<std::string, std::string>& environment,
+                            const std::string& default_config_file = "config/server.toml");
+
+/// The --help text: every option with its flag, environment variable, TOML key, default, meaning.
+std::string help_text();
+
+/// The current process environment as a map (only TERRAIN_* variables are read).
+std::map<std::string, std::string> process_environment();
+
+std::string_view backend_name(Backend backend);
+
+}  // namespace server

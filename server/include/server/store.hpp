@@ -1,0 +1,89 @@
+// Durable storage of scenes, their immutable versions and uploaded images. The interface is what
+// the HTTP layer needs; SQLite (embedded default) implements it here, PostgreSQL will later.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "terrain/result.hpp"
+
+namespace server {
+
+/// Why a store operation failed.
+struct StoreError {
+  enum class Kind {
+    not_found,    ///< no such scene, version or blob
+    conflict,     ///< the head moved since the caller looked (If-Match), or the id is taken
+    unavailable,  ///< the storage engine failed (disk, locks, corruption): retry later
+  };
+  Kind kind = Kind::unavailable;
+  std::string message;
+};
+
+template <class T>
+using StoreResult = terrain::Result<T, StoreError>;
+
+/// One immutable version of a scene.
+struct SceneVersion {
+  std::string scene_id;
+  std::int64_t version = 0;  ///< 1, 2, 3, … per scene
+  std::string hash;          ///< "sha256:…" of the canonical JSON
+  std::string name;
+  std::string canonical_json;
+  std::string author;
+  std::int64_t created_ms = 0;  ///< Unix time in milliseconds
+};
+
+/// A scene and its head version, without the body.
+struct SceneSummary {
+  std::string id;
+  std::string name;
+  std::int64_t head_version = 0;
+  std::string head_hash;
+};
+
+/// A stored image, referenced by its content hash from scenes.
+struct Blob {
+  std::string hash;  ///< "sha256:…" of the bytes
+  std::string media_type;
+  std::vector<std::uint8_t> bytes;
+};
+
+/// Thread-safe: every method may be called from any thread.
+class Store {
+ public:
+  virtual ~Store() = default;
+
+  virtual StoreResult<std::vector<SceneSummary>> list_scenes() = 0;
+  /// Creates a scene with its first version. `id` must be new (else conflict).
+  virtual StoreResult<SceneVersion> create_scene(const std::string& id,
+                                                 const SceneVersion& first) = 0;
+  /// Appends a version in one transaction. When `expected_head` is set and the head is another
+  /// version, nothing is written and the error is a conflict.
+  virtual StoreResult<SceneVersion> add_version(const std::string& id, const SceneVersion& next,
+                                                std::optional<std::int64_t> expected_head) = 0;
+  virtual StoreResult<SceneVersion> head(const std::string& id) = 0;
+  virtual StoreResult<SceneVersion> version(const std::string& id, std::int64_t number) = 0;
+  /// The version of a scene with this content hash (the latest such, when a scene went back).
+  virtual StoreResult<SceneVersion> version_by_hash(const std::string& id,
+                                                    const std::string& hash) = 0;
+  /// Every version's metadata (bodies left empty), oldest first.
+  virtual StoreResult<std::vector<SceneVersion>> versions(const std::string& id) = 0;
+  /// Stores a blob under its hash (idempotent).
+  virtual StoreResult<bool> put_blob(const Blob& blob) = 0;
+  virtual StoreResult<Blob> blob(const std::string& hash) = 0;
+  /// True when no scene has ever been stored (built-in examples are loaded then).
+  virtual StoreResult<bool> empty() = 0;
+};
+
+/// Opens (creating when needed) `<data_dir>/terrain.sqlite3` in WAL mode with synchronous=FULL,
+/// migrating its schema to the current version.
+StoreResult<std::unique_ptr<Store>> open_sqlite_store(const std::string& data_dir);
+
+/// "sha256:<hex>" of bytes.
+std::string content_hash(const void* data, std::size_t size);
+
+}  // namespace server

@@ -1,0 +1,131 @@
+// The SQLite store: versions are immutable and ordered, If-Match conflicts write nothing, data
+// survives reopening, blobs are content-addressed.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <thread>
+
+#include "server/store.hpp"
+
+namespace server {
+namespace {
+
+namespace fs = std::filesystem;
+
+class StoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("terrain-store-" + std::to_string(::getpid()) + "-" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    store_ = open_or_die();
+  }
+  void TearDown() override {
+    store_.reset();
+    fs::remove_all(dir_);
+  }
+  std::unique_ptr<Store> open_or_die() {
+    StoreResult<std::unique_ptr<Store>> s = open_sqlite_store(dir_.string());
+    if (!s) throw std::runtime_error(s.error().message);
+    return std::move(s).value();
+  }
+  static SceneVersion body(const std::string& json) {
+    SceneVersion v;
+    v.name = "n";
+    v.canonical_json = json;
+    v.hash = content_hash(json.data(), json.size());
+    v.author = "test";
+    return v;
+  }
+
+  fs::path dir_;
+  std::unique_ptr<Store> store_;
+};
+
+TEST_F(StoreTest, NewStoreIsEmpty) {
+  EXPECT_TRUE(*store_->empty());
+  EXPECT_TRUE(store_->list_scenes()->empty());
+}
+
+TEST_F(StoreTest, VersionsCountUpAndStayImmutable) {
+  ASSERT_TRUE(store_->create_scene("a", body("{\"v\":1}")).ok());
+  StoreResult<SceneVersion> v2 = store_->add_version("a", body("{\"v\":2}"), std::nullopt);
+  ASSERT_TRUE(v2.ok());
+  EXPECT_EQ(v2->version, 2);
+  EXPECT_EQ(store_->head("a")->canonical_json, "{\"v\":2}");
+  EXPECT_EQ(store_->version("a", 1)->canonical_json, "{\"v\":1}");
+  EXPECT_EQ(store_->version_by_hash("a", v2->hash)->version, 2);
+  const auto all = store_->versions("a");
+  ASSERT_EQ(all->size(), 2u);
+  EXPECT_EQ((*all)[0].version, 1);
+  EXPECT_TRUE((*all)[0].canonical_json.empty());  // metadata only
+  const auto list = store_->list_scenes();
+  ASSERT_EQ(list->size(), 1u);
+  EXPECT_EQ((*list)[0].head_version, 2);
+  EXPECT_EQ((*list)[0].head_hash, v2->hash);
+}
+
+TEST_F(StoreTest, StaleIfMatchIsAConflictAndWritesNothing) {
+  ASSERT_TRUE(store_->create_scene("a", body("{}")).ok());
+  ASSERT_TRUE(store_->add_version("a", body("{\"x\":1}"), 1).ok());
+  StoreResult<SceneVersion> stale = store_->add_version("a", body("{\"x\":2}"), 1);
+  ASSERT_FALSE(stale.ok());
+  EXPECT_EQ(stale.error().kind, StoreError::Kind::conflict);
+  EXPECT_EQ(store_->head("a")->version, 2);
+  EXPECT_EQ(store_->versions("a")->size(), 2u);
+}
+
+TEST_F(StoreTest, ConcurrentWritersGetDistinctVersions) {
+  ASSERT_TRUE(store_->create_scene("a", body("{}")).ok());
+  std::vector<std::thread> writers;
+  for (int t = 0; t < 4; ++t) {
+    writers.emplace_back([&, t] {
+      for (int i = 0; i < 10; ++i) {
+        ASSERT_TRUE(store_
+                        ->add_version("a", body("{\"t\":" + std::to_string(t * 100 + i) + "}"),
+                                      std::nullopt)
+                        .ok());
+      }
+    });
+  }
+  for (std::thread& w : writers) w.join();
+  const auto all = store_->versions("a");
+  ASSERT_EQ(all->size(), 41u);
+  for (std::size_t i = 0; i < all->size(); ++i) EXPECT_EQ((*all)[i].version, std::int64_t(i) + 1);
+}
+
+TEST_F(StoreTest, SurvivesReopening) {
+  ASSERT_TRUE(store_->create_scene("a", body("{\"k\":1}")).ok());
+  const std::vector<std::uint8_t> bytes{1, 2, 3};
+  const Blob blob{content_hash(bytes.data(), bytes.size()), "image/png", bytes};
+  ASSERT_TRUE(store_->put_blob(blob).ok());
+  store_ = open_or_die();
+  EXPECT_EQ(store_->head("a")->canonical_json, "{\"k\":1}");
+  EXPECT_EQ(store_->blob(blob.hash)->bytes, bytes);
+  EXPECT_FALSE(*store_->empty());
+}
+
+TEST_F(StoreTest, BlobsAreIdempotent) {
+  const std::vector<std::uint8_t> bytes{9, 9};
+  const Blob blob{content_hash(bytes.data(), bytes.size()), "image/png", bytes};
+  ASSERT_TRUE(store_->put_blob(blob).ok());
+  ASSERT_TRUE(store_->put_blob(blob).ok());
+  EXPECT_EQ(store_->blob(blob.hash)->media_type, "image/png");
+}
+
+// Missing things and conflicts, together.
+TEST_F(StoreTest, MissingAndDuplicateAreClassified) {
+  EXPECT_EQ(store_->head("nope").error().kind, StoreError::Kind::not_found);
+  EXPECT_EQ(store_->version("nope", 1).error().kind, StoreError::Kind::not_found);
+  EXPECT_EQ(store_->versions("nope").error().kind, StoreError::Kind::not_found);
+  EXPECT_EQ(store_->add_version("nope", body("{}"), std::nullopt).error().kind,
+            StoreError::Kind::not_found);
+  EXPECT_EQ(store_->blob("sha256:00").error().kind, StoreError::Kind::not_found);
+  ASSERT_TRUE(store_->create_scene("a", body("{}")).ok());
+  EXPECT_EQ(store_->create_scene("a", body("{}")).error().kind, StoreError::Kind::conflict);
+  EXPECT_EQ(store_->version("a", 2).error().kind, StoreError::Kind::not_found);
+}
+
+}  // namespace
+}  // namespace server
