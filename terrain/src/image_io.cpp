@@ -322,6 +322,13 @@ Result<std::vector<std::uint8_t>> encode_png16(int width, int height,
   });
 }
 
+Result<std::vector<std::uint8_t>> encode_png_gray8(int width, int height,
+                                                   const std::uint8_t* samples) {
+  return guarded("cannot encode PNG", [&] {
+    return encode_impl("png", width, height, 1, OIIO::TypeDesc::UINT8, samples);
+  });
+}
+
 Result<std::vector<std::uint8_t>> encode_png_rgb8(int width, int height, const std::uint8_t* rgb) {
   return guarded("cannot encode PNG",
                  [&] { return encode_impl("png", width, height, 3, OIIO::TypeDesc::UINT8, rgb); });

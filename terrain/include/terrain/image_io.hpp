@@ -53,6 +53,9 @@ Result<Raster> decode_heightfield(std::span<const std::uint8_t> bytes, std::stri
 Result<std::vector<std::uint8_t>> encode_float_tiff(int width, int height, const float* samples);
 /// Single-channel 16-bit greyscale PNG.
 Result<std::vector<std::uint8_t>> encode_png16(int width, int height, const std::uint16_t* samples);
+/// Single-channel 8-bit greyscale PNG.
+Result<std::vector<std::uint8_t>> encode_png_gray8(int width, int height,
+                                                   const std::uint8_t* samples);
 /// 8-bit RGB PNG; `rgb` holds width * height * 3 bytes, pixel-interleaved.
 Result<std::vector<std::uint8_t>> encode_png_rgb8(int width, int height, const std::uint8_t* rgb);
 
