@@ -1,21 +1,25 @@
 // terrain: command-line access to the terrain model — validate, sample, grid, render, program.
 #include <unistd.h>
 
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "terrain/evaluate.hpp"
+#include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/program.hpp"
 #include "terrain/scene.hpp"
 #include "terrain/sphere_trace.hpp"
+#include "terrain/tile_products.hpp"
 
 namespace {
 
@@ -32,6 +36,14 @@ Usage:
                                          scaled to the scene's elevation range, printed)
   terrain render SCENE.json -o OUT.png [--width W] [--height H] [--plain] [--water Z]
                                          sphere-traced picture with simple shading
+  terrain tile SCENE.json Z X Y -o OUT.{png,tif,terrain,glb,drc} [--scheme S] [--encoding E]
+       [--size N] [--border] [--grid N] [--max-error M] [--regular] [--gunzip]
+                                         one tile: S = local (default), webmercator or
+                                         geographic; E (PNG) = terrain-rgb (default), terrarium,
+                                         gray16, normals, hillshade; .terrain (quantized-mesh,
+                                         geographic only) is written gzipped as served unless
+                                         --gunzip; prints what it wrote as JSON
+  terrain layer-json SCENE.json          Cesium layer.json for the scene's geographic tiles
   terrain program SCENE.json             the compiled program as JSON
   terrain nodes                          every node type: summary and example (JSON)
   terrain --help
@@ -53,7 +65,8 @@ std::optional<Args> parse_args(int argc, char** argv) {
   Args args;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
-    if (a == "--plain" || a == "--help" || a == "-h") {
+    if (a == "--plain" || a == "--help" || a == "-h" || a == "--border" || a == "--regular" ||
+        a == "--gunzip") {
       args.options[a] = "1";
     } else if (a.rfind("-", 0) == 0 && a.size() > 1 &&
                !std::isdigit(static_cast<unsigned char>(a[1])) && a[1] != '.') {
@@ -297,6 +310,121 @@ int cmd_nodes() {
   return 0;
 }
 
+std::optional<std::int64_t> to_integer(const std::string& text) {
+  std::int64_t v = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc() || end != text.data() + text.size()) return std::nullopt;
+  return v;
+}
+
+std::unique_ptr<ProductMaker> product_maker(const std::string& path) {
+  Result<Scene> scene = load_scene_file(path);
+  if (!scene) {
+    std::cerr << path << ": " << scene.error().pointer << ": " << scene.error().message << "\n";
+    return nullptr;
+  }
+  Result<TileSource> source = TileSource::from_scene(*scene);
+  if (!source) {
+    std::cerr << path << ": " << source.error().pointer << ": " << source.error().message << "\n";
+    return nullptr;
+  }
+  return std::make_unique<ProductMaker>(std::move(source).value());
+}
+
+int cmd_tile(const Args& args) {
+  if (args.positional.size() != 5 || !args.has("-o")) {
+    std::cerr << "terrain tile: needs SCENE Z X Y -o OUT\n";
+    return 2;
+  }
+  const auto z = to_integer(args.positional[2]);
+  const auto x = to_integer(args.positional[3]);
+  const auto y = to_integer(args.positional[4]);
+  if (!z || !x || !y || *z < -1000 || *z > 1000) {
+    std::cerr << "terrain tile: Z X Y must be integers\n";
+    return 2;
+  }
+  const std::string out = args.get("-o", "");
+  const std::size_t dot = out.rfind('.');
+  Result<TileFormat> format =
+      parse_tile_format(dot == std::string::npos ? "" : std::string_view(out).substr(dot + 1),
+                        args.get("--encoding", ""));
+  Result<TileScheme> scheme = parse_scheme(args.get("--scheme", "local"));
+  for (const Error* e :
+       {format.ok() ? nullptr : &format.error(), scheme.ok() ? nullptr : &scheme.error()}) {
+    if (e != nullptr) {
+      std::cerr << "terrain tile: " << e->pointer << ": " << e->message << "\n";
+      return 2;
+    }
+  }
+  ProductOptions options;
+  const auto size = to_integer(args.get("--size", "256"));
+  const auto grid = to_integer(args.get("--grid", "65"));
+  if (!size || !grid || *size > 4096 || *grid > 4096) {
+    std::cerr << "terrain tile: --size and --grid take integers\n";
+    return 2;
+  }
+  options.size = static_cast<int>(*size);
+  options.grid = static_cast<int>(*grid);
+  options.border = args.has("--border");
+  options.regular = args.has("--regular");
+  if (args.has("--max-error")) {
+    options.max_error = to_number(args.get("--max-error", ""));
+    if (!options.max_error) {
+      std::cerr << "terrain tile: --max-error takes a number of metres\n";
+      return 2;
+    }
+  }
+  auto maker = product_maker(args.positional[1]);
+  if (!maker) return 1;
+  const auto start = std::chrono::steady_clock::now();
+  Result<Product> product = maker->make(*scheme, {static_cast<int>(*z), *x, *y}, *format, options);
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (!product) {
+    std::cerr << "terrain tile: " << product.error().pointer << ": " << product.error().message
+              << "\n";
+    return 1;
+  }
+  std::vector<std::uint8_t> bytes = std::move(product->bytes);
+  std::string encoding = product->content_encoding;
+  if (args.has("--gunzip") && encoding == "gzip") {
+    Result<std::vector<std::uint8_t>> raw = gzip_decompress(bytes, std::size_t{1} << 30);
+    if (!raw) {
+      std::cerr << "terrain tile: " << raw.error().message << "\n";
+      return 1;
+    }
+    bytes = std::move(*raw);
+    encoding.clear();
+  }
+  std::FILE* file = std::fopen(out.c_str(), "wb");
+  if (file == nullptr || std::fwrite(bytes.data(), 1, bytes.size(), file) != bytes.size() ||
+      std::fclose(file) != 0) {
+    std::cerr << "terrain tile: cannot write " << out << "\n";
+    return 1;
+  }
+  nlohmann::json report{{"file", out},
+                        {"bytes", bytes.size()},
+                        {"media_type", product->media_type},
+                        {"milliseconds", std::round(ms * 100.0) / 100.0}};
+  if (!encoding.empty()) report["content_encoding"] = encoding;
+  if (*format == TileFormat::gray16) {
+    report["gray16"] = {{"offset", maker->constants().gray16.offset},
+                        {"scale", maker->constants().gray16.scale},
+                        {"height", "offset + scale * value"}};
+  }
+  std::cout << report.dump(2) << "\n";
+  return 0;
+}
+
+int cmd_layer_json(const Args& args) {
+  auto maker = product_maker(args.positional.at(1));
+  if (!maker) return 1;
+  LayerJsonOptions options;
+  options.name = maker->source().terrain->scene_hash;
+  std::cout << maker->layer_json(options).dump(2) << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -317,6 +445,8 @@ int main(int argc, char** argv) {
   if (command == "grid") return cmd_grid(*args);
   if (command == "render") return cmd_render(*args);
   if (command == "program") return cmd_program(*args);
+  if (command == "tile") return cmd_tile(*args);
+  if (command == "layer-json") return cmd_layer_json(*args);
   std::cerr << "terrain: unknown command '" << command << "'\n" << kUsage;
   return 2;
 }

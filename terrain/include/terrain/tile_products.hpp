@@ -1,0 +1,111 @@
+// Every tile product of a scene from one entry point: address + format + options → bytes, with
+// the scene-wide constants (gray16 encoding, quantisation lattices, error allowances) chosen once
+// per scene so that neighbouring tiles agree. What the CLI's `terrain tile` and the server call.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "terrain/quantized_mesh.hpp"
+#include "terrain/tile_image.hpp"
+#include "terrain/tile_source.hpp"
+
+namespace terrain {
+
+enum class TileFormat {
+  terrain_rgb,     ///< PNG, Mapbox terrain-RGB
+  terrarium,       ///< PNG, Terrarium
+  gray16,          ///< PNG, 16-bit grey with the scene's offset and scale
+  normal_map,      ///< PNG, RGB normals
+  hillshade,       ///< PNG, 8-bit grey shading
+  geotiff,         ///< TIFF, float32, georeferenced
+  quantized_mesh,  ///< .terrain, Cesium quantized-mesh-1.0 (gzipped)
+  glb,             ///< glTF binary with KHR_draco_mesh_compression
+  draco,           ///< raw Draco mesh
+};
+
+/// Names and media types, driven by one table.
+struct TileFormatInfo {
+  TileFormat format;
+  std::string_view extension;  ///< "png", "tif", "terrain", "glb", "drc"
+  std::string_view encoding;   ///< the `encoding` query value for PNGs, else ""
+  std::string_view media_type;
+  bool mesh;
+};
+const TileFormatInfo& format_info(TileFormat format);
+const std::vector<TileFormatInfo>& tile_formats();
+
+/// A format from a file extension and an optional encoding (PNG: terrain-rgb (default),
+/// terrarium, gray16, normals, hillshade). The error names "/format" or "/encoding".
+Result<TileFormat> parse_tile_format(std::string_view extension, std::string_view encoding = "");
+
+/// Options beyond the address; each applies to some formats only.
+struct ProductOptions {
+  int size = 256;       ///< height images: samples per side (64, 128, 256, 512)
+  bool border = false;  ///< height images: one more ring of the neighbours' samples
+  int grid = 65;        ///< meshes: 2^k + 1 samples per side (3 .. 513)
+  /// Meshes: largest vertical error of the adaptive triangulation in metres; by default a quarter
+  /// of the mesh grid's ground spacing (it follows the zoom). 0 = every grid sample.
+  std::optional<double> max_error;
+  bool regular = false;  ///< meshes: the full regular grid instead of the adaptive mesh
+  /// quantized-mesh extensions (Cesium asks for them in its Accept header).
+  bool octvertexnormals = true;
+  bool watermask = true;
+  bool metadata = true;
+};
+
+/// An encoded tile.
+struct Product {
+  std::vector<std::uint8_t> bytes;
+  std::string media_type;
+  std::string content_encoding;  ///< "gzip" for quantized-mesh, else ""
+};
+
+/// Constants of a scene's products: every tile of a scene is encoded with these.
+struct ProductConstants {
+  Gray16Encoding gray16;
+  double edge_quantum = 1.0;           ///< quantized-mesh: shared edge heights are multiples of it
+  double position_quantum = 1.0;       ///< glb/drc: the position lattice
+  int max_useful_zoom[3] = {0, 0, 0};  ///< per scheme: where mesh grid spacing reaches ~1 m
+};
+
+/// Makes products. Holds a TileGenerator, so it is not thread-safe: use one per thread.
+class ProductMaker {
+ public:
+  explicit ProductMaker(TileSource source);
+
+  const ProductConstants& constants() const { return constants_; }
+  const TileSource& source() const { return generator_.source(); }
+
+  /// Validates everything (address, format against scheme, options) before any work.
+  Result<Product> make(TileScheme scheme, const TileAddress& address, TileFormat format,
+                       const ProductOptions& options = {});
+
+  /// The height tile behind a product (what `make` encodes), for tools and tests.
+  Result<HeightTile> height_tile(TileScheme scheme, const TileAddress& address, TileFormat format,
+                                 const ProductOptions& options = {});
+  /// The triangulation `make` uses for a mesh tile.
+  TileMesh triangulate(const HeightTile& tile, const ProductOptions& options) const;
+  /// The default error allowance for meshes at zoom z (metres).
+  double default_max_error(TileScheme scheme, int z, int grid) const;
+
+  /// Cesium's layer.json for the geographic scheme: availability where the scene is (every
+  /// zoom 0 tile, then the tiles covering the scene's area up to max_useful_zoom).
+  nlohmann::json layer_json(const LayerJsonOptions& base) const;
+
+ private:
+  Status validate(TileScheme scheme, const TileAddress& address, TileFormat format,
+                  const ProductOptions& options) const;
+  std::vector<std::vector<AvailabilityRectangle>> availability(int from_z, int to_z,
+                                                               const TileAddress* within) const;
+
+  TileGenerator generator_;
+  ProductConstants constants_;
+};
+
+}  // namespace terrain

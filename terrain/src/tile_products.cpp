@@ -1,0 +1,231 @@
+#include "terrain/tile_products.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+#include "terrain/draco_mesh.hpp"
+#include "terrain/gzip.hpp"
+
+namespace terrain {
+namespace {
+
+bool is_power_of_two(int n) {
+  return n > 0 && (n & (n - 1)) == 0;
+}
+
+bool is_mesh(TileFormat format) {
+  return format_info(format).mesh;
+}
+
+constexpr TileScheme kSchemes[] = {TileScheme::local, TileScheme::webmercator,
+                                   TileScheme::geographic};
+
+}  // namespace
+
+const std::vector<TileFormatInfo>& tile_formats() {
+  static const std::vector<TileFormatInfo> table = {
+      {TileFormat::terrain_rgb, "png", "terrain-rgb", "image/png", false},
+      {TileFormat::terrarium, "png", "terrarium", "image/png", false},
+      {TileFormat::gray16, "png", "gray16", "image/png", false},
+      {TileFormat::normal_map, "png", "normals", "image/png", false},
+      {TileFormat::hillshade, "png", "hillshade", "image/png", false},
+      {TileFormat::geotiff, "tif", "", "image/tiff", false},
+      {TileFormat::quantized_mesh, "terrain", "", "application/vnd.quantized-mesh", true},
+      {TileFormat::glb, "glb", "", "model/gltf-binary", true},
+      {TileFormat::draco, "drc", "", "application/vnd.google.draco", true},
+  };
+  return table;
+}
+
+const TileFormatInfo& format_info(TileFormat format) {
+  for (const TileFormatInfo& info : tile_formats()) {
+    if (info.format == format) return info;
+  }
+  assert(false && "unknown tile format");
+  return tile_formats().front();
+}
+
+Result<TileFormat> parse_tile_format(std::string_view extension, std::string_view encoding) {
+  bool extension_known = false;
+  for (const TileFormatInfo& info : tile_formats()) {
+    if (info.extension != extension) continue;
+    extension_known = true;
+    if (info.encoding == encoding || (encoding.empty() && info.format == TileFormat::terrain_rgb)) {
+      return info.format;
+    }
+  }
+  if (!extension_known) {
+    return Error{"unknown tile format '" + std::string(extension) +
+                     "' (expected png, tif, terrain, glb or drc)",
+                 "/format"};
+  }
+  if (extension == "png") {
+    return Error{"unknown PNG encoding '" + std::string(encoding) +
+                     "' (expected terrain-rgb, terrarium, gray16, normals or hillshade)",
+                 "/encoding"};
+  }
+  return Error{"the ." + std::string(extension) + " format takes no encoding", "/encoding"};
+}
+
+ProductMaker::ProductMaker(TileSource source) : generator_(std::move(source)) {
+  const TileSource& s = generator_.source();
+  constants_.gray16 = gray16_encoding_for(s.elevation_range);
+  const double range = static_cast<double>(s.elevation_range.hi) - s.elevation_range.lo;
+  constants_.edge_quantum = edge_quantum_for(range);
+  // Positions span the scene's square; skirts reach below it by at most a few tens of metres
+  // on useful zooms, which the factor two in position_quantum_for's rule leaves room for.
+  constants_.position_quantum =
+      position_quantum_for(s.local_square.east - s.local_square.west, range);
+  for (TileScheme scheme : kSchemes) {
+    int z = 0;
+    while (z < max_zoom(scheme) && ground_spacing(s, scheme, z, 64) > 1.0) ++z;
+    constants_.max_useful_zoom[static_cast<int>(scheme)] = z;
+  }
+}
+
+double ProductMaker::default_max_error(TileScheme scheme, int z, int grid) const {
+  return 0.25 * ground_spacing(generator_.source(), scheme, z, grid - 1);
+}
+
+Status ProductMaker::validate(TileScheme scheme, const TileAddress& address, TileFormat format,
+                              const ProductOptions& options) const {
+  if (Status s = validate_address(scheme, address); !s) return s;
+  if (is_mesh(format)) {
+    const int cells = options.grid - 1;
+    if (!is_power_of_two(cells) || cells < 2 || cells > 512) {
+      return Error{
+          "mesh grid " + std::to_string(options.grid) + " is not 2^k + 1 between 3 and 513",
+          "/grid"};
+    }
+    if (options.max_error && !(*options.max_error >= 0.0 && *options.max_error <= 1e6)) {
+      return Error{"max_error must be between 0 and 1e6 metres", "/max_error"};
+    }
+    if (format == TileFormat::quantized_mesh && scheme != TileScheme::geographic) {
+      return Error{"quantized-mesh tiles exist in the geographic scheme only (Cesium's)",
+                   "/scheme"};
+    }
+  } else if (!is_power_of_two(options.size) || options.size < 64 || options.size > 512) {
+    return Error{"tile size " + std::to_string(options.size) + " is not one of 64, 128, 256, 512",
+                 "/size"};
+  }
+  return Ok{};
+}
+
+Result<HeightTile> ProductMaker::height_tile(TileScheme scheme, const TileAddress& address,
+                                             TileFormat format, const ProductOptions& options) {
+  if (Status s = validate(scheme, address, format, options); !s) return s.error();
+  TileRequest request{scheme, address, SampleLayout::cell_centres, options.size,
+                      options.border ? 1 : 0};
+  if (is_mesh(format)) request = {scheme, address, SampleLayout::cell_corners, options.grid - 1, 0};
+  return generator_.height_tile(request);
+}
+
+TileMesh ProductMaker::triangulate(const HeightTile& tile, const ProductOptions& options) const {
+  if (options.regular) return triangulate_grid(tile.width);
+  const double max_error =
+      options.max_error.value_or(default_max_error(tile.scheme, tile.address.z, tile.width));
+  return triangulate_rtin(tile.elevation.data(), tile.width, static_cast<float>(max_error));
+}
+
+std::vector<std::vector<AvailabilityRectangle>> ProductMaker::availability(
+    int from_z, int to_z, const TileAddress* within) const {
+  std::vector<std::vector<AvailabilityRectangle>> levels;
+  for (int z = from_z; z <= to_z; ++z) {
+    std::vector<AvailabilityRectangle> level;
+    if (z == 0) {
+      level.push_back({0, 0, 1, 0});  // both root tiles always exist
+    } else {
+      const TileRange r = tiles_covering_area(generator_.source(), TileScheme::geographic, z);
+      AvailabilityRectangle a{r.min_x, r.min_y, r.max_x, r.max_y};
+      if (within != nullptr) {  // only the descendants of one tile
+        const int k = z - within->z;
+        a.start_x = std::max(a.start_x, within->x << k);
+        a.start_y = std::max(a.start_y, within->y << k);
+        a.end_x = std::min(a.end_x, ((within->x + 1) << k) - 1);
+        a.end_y = std::min(a.end_y, ((within->y + 1) << k) - 1);
+      }
+      if (a.start_x <= a.end_x && a.start_y <= a.end_y) level.push_back(a);
+    }
+    levels.push_back(std::move(level));
+  }
+  return levels;
+}
+
+nlohmann::json ProductMaker::layer_json(const LayerJsonOptions& base) const {
+  LayerJsonOptions options = base;
+  options.minzoom = 0;
+  options.maxzoom = constants_.max_useful_zoom[static_cast<int>(TileScheme::geographic)];
+  options.available = availability(0, options.maxzoom, nullptr);
+  return quantized_mesh_layer_json(options);
+}
+
+Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address, TileFormat format,
+                                   const ProductOptions& options) {
+  Result<HeightTile> generated = height_tile(scheme, address, format, options);
+  if (!generated) return generated.error();
+  const HeightTile& tile = *generated;
+  Product product;
+  product.media_type = std::string(format_info(format).media_type);
+  Result<std::vector<std::uint8_t>> bytes = std::vector<std::uint8_t>{};
+  switch (format) {
+    case TileFormat::terrain_rgb:
+      bytes = encode_terrain_rgb(tile);
+      break;
+    case TileFormat::terrarium:
+      bytes = encode_terrarium(tile);
+      break;
+    case TileFormat::gray16:
+      bytes = encode_gray16(tile, constants_.gray16);
+      break;
+    case TileFormat::normal_map:
+      bytes = encode_normal_map(tile);
+      break;
+    case TileFormat::hillshade:
+      bytes = encode_hillshade(tile);
+      break;
+    case TileFormat::geotiff:
+      bytes = encode_geotiff(tile, generator_.source().georeference);
+      break;
+    case TileFormat::glb:
+    case TileFormat::draco: {
+      DracoOptions draco;
+      draco.position_quantum = constants_.position_quantum;
+      const double max_error =
+          options.max_error.value_or(default_max_error(scheme, address.z, options.grid));
+      // Skirts deep enough to hide the largest step between neighbours of adjacent levels.
+      draco.skirt_height = std::max(5.0 * max_error, 1.0);
+      const TileMesh mesh = triangulate(tile, options);
+      bytes = format == TileFormat::glb ? encode_glb(tile, mesh, draco)
+                                        : encode_draco(tile, mesh, draco);
+      break;
+    }
+    case TileFormat::quantized_mesh: {
+      QuantizedMeshOptions qm;
+      qm.edge_quantum = constants_.edge_quantum;
+      qm.normals = options.octvertexnormals;
+      if (options.watermask) {
+        Result<std::vector<std::uint8_t>> mask = generator_.water_mask(scheme, address);
+        if (!mask) return mask.error();
+        qm.water_mask = std::move(*mask);
+      }
+      if (options.metadata) {
+        const int deepest = constants_.max_useful_zoom[static_cast<int>(TileScheme::geographic)];
+        qm.metadata = quantized_mesh_metadata_json(
+                          availability(address.z + 1, std::min(deepest, address.z + 10), &address))
+                          .dump();
+      }
+      Result<std::vector<std::uint8_t>> raw =
+          encode_quantized_mesh(tile, triangulate(tile, options), qm);
+      if (!raw) return raw.error();
+      bytes = gzip_compress(std::span<const std::uint8_t>(*raw), 6);
+      product.content_encoding = "gzip";
+      break;
+    }
+  }
+  if (!bytes) return bytes.error();
+  product.bytes = std::move(*bytes);
+  return product;
+}
+
+}  // namespace terrain
