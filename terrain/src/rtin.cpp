@@ -116,7 +116,11 @@ struct Emitter {
         return;
       }
     }
-    corners.insert(corners.end(), {index(t.a), index(t.b), index(t.c)});
+    // push_back, not insert of an initializer list: GCC 12 at -O3 reports a false
+    // stringop-overflow for the latter.
+    corners.push_back(index(t.a));
+    corners.push_back(index(t.b));
+    corners.push_back(index(t.c));
   }
 };
 
