@@ -1,0 +1,73 @@
+// The request handler: routes of the v1 HTTP contract (../shared/ARCHITECTURE.md) as a function
+// of the request. Cheap answers come back at once; tile generation comes back as Deferred work
+// for the bounded generation pool. Thread-safe: sessions on any thread call handle().
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <unordered_map>
+
+#include "server/cache.hpp"
+#include "server/config.hpp"
+#include "server/http.hpp"
+#include "server/metrics.hpp"
+#include "server/store.hpp"
+#include "terrain/tile_source.hpp"
+
+namespace server {
+
+/// A stored scene version, parsed and compiled once and shared by every thread.
+struct LoadedVersion {
+  SceneVersion version;
+  std::shared_ptr<const terrain::TileSource> source;
+  std::shared_ptr<const terrain::Scene> scene;
+};
+
+class App {
+ public:
+  App(Config config, std::unique_ptr<Store> store);
+
+  /// Routes one request. Never throws; errors are problem+json responses.
+  Outcome handle(const Request& request);
+
+  /// Loads the built-in example scenes (config.scenes_dir) when the store holds no scene yet;
+  /// their images become stored blobs referenced by hash.
+  terrain::Status seed_examples();
+
+  const Config& config() const { return config_; }
+  Metrics& metrics() { return metrics_; }
+  ProductCache& cache() { return cache_; }
+  /// The route label a request counts under in /metrics.
+  static std::string route_label(const Request& request);
+  /// Adds the CORS headers the configuration allows for this request's Origin.
+  void add_cors(const Request& request, Response& response) const;
+
+ private:
+  struct Target;
+  Outcome route(const Request& request, const Target& target);
+  Response list_scenes(const Request& request);
+  Response create_scene(const Request& request, const Target& target);
+  Response put_scene(const Request& request, const std::string& id);
+  Response get_scene(const Request& request, const std::string& ref);
+  Response versions(const Request& request, const std::string& id);
+  Response upload_image(const Request& request);
+  Outcome scene_product(const Request& request, const std::string& ref,
+                        const std::vector<std::string>& rest, const Target& target);
+  Response authorize(const Request& request) const;  // result() == ok when allowed
+
+  terrain::Result<LoadedVersion, Response> resolve(const Request& request, const std::string& ref);
+  terrain::Result<LoadedVersion, Response> load_version(const Request& request,
+                                                        const SceneVersion& version);
+  terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> parse_stored(
+      const std::string& json);
+
+  Config config_;
+  std::unique_ptr<Store> store_;
+  Metrics metrics_;
+  ProductCache cache_;
+  std::mutex versions_mutex_;
+  std::unordered_map<std::string, LoadedVersion> loaded_;  // by version hash (bounded)
+};
+
+}  // namespace server

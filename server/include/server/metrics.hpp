@@ -1,0 +1,44 @@
+// Prometheus metrics: requests by route and status, latency histograms, generation time, queue
+// depth, cache counters.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <string>
+#include <string_view>
+
+namespace server {
+
+class ProductCache;
+
+class Metrics {
+ public:
+  static constexpr std::array<double, 12> kBuckets = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025,
+                                                      0.05,   0.1,   0.25,   0.5,   1.0,  5.0};
+
+  void request(std::string_view route, int status, double seconds);
+  void generation(std::string_view product, double seconds, std::string_view backend);
+
+  std::atomic<int> queued{0};    ///< requests waiting for or running on the generation pool
+  std::atomic<int> rejected{0};  ///< requests refused because the queue was full
+
+  /// The text exposition format.
+  std::string prometheus(const ProductCache& cache) const;
+
+ private:
+  struct Histogram {
+    std::array<std::int64_t, kBuckets.size()> counts{};
+    std::int64_t count = 0;
+    double sum = 0.0;
+    void add(double v);
+  };
+  mutable std::mutex mutex_;
+  std::map<std::pair<std::string, int>, std::int64_t> requests_;
+  std::map<std::string, Histogram> latency_;
+  std::map<std::pair<std::string, std::string>, Histogram> generation_;
+};
+
+}  // namespace server

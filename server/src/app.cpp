@@ -1,0 +1,998 @@
+#include "server/app.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "terrain/gzip.hpp"
+#include "terrain/image_io.hpp"
+#include "terrain/program.hpp"
+#include "terrain/tile_products.hpp"
+
+namespace server {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using terrain::Error;
+
+constexpr std::size_t kLoadedVersions = 64;  // compiled scene versions kept in memory
+constexpr std::size_t kMakersPerThread = 8;  // per-thread product makers (evaluators)
+
+std::string quote(std::string_view s) {
+  return "\"" + std::string(s) + "\"";
+}
+
+Response make_response(const Request& request, http::status status, std::string body,
+                       std::string_view media_type) {
+  Response r{status, request.version()};
+  r.set(http::field::server, "terrain-server");
+  r.set(http::field::content_type, media_type);
+  r.keep_alive(request.keep_alive());
+  r.body() = std::move(body);
+  r.prepare_payload();
+  return r;
+}
+
+bool accepts_gzip(const Request& request) {
+  const auto it = request.find(http::field::accept_encoding);
+  return it != request.end() && it->value().find("gzip") != boost::beast::string_view::npos;
+}
+
+// JSON answers are gzipped when the client accepts it and the body is worth compressing.
+Response json_response(const Request& request, http::status status, const json& body,
+                       std::string_view media_type = "application/json") {
+  std::string text = body.dump();
+  Response r = make_response(request, status, "", media_type);
+  if (accepts_gzip(request) && text.size() > 1024) {
+    auto packed = terrain::gzip_compress(std::string_view(text), 6);
+    if (packed) {
+      r.set(http::field::content_encoding, "gzip");
+      text.assign(packed->begin(), packed->end());
+    }
+  }
+  r.set(http::field::vary, "Accept-Encoding, Origin");
+  r.body() = std::move(text);
+  r.prepare_payload();
+  return r;
+}
+
+std::string percent_decode(std::string_view in, bool plus_is_space, bool& ok) {
+  std::string out;
+  out.reserve(in.size());
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    const char c = in[i];
+    if (c == '%') {
+      int v = 0;
+      if (i + 2 >= in.size() ||
+          std::from_chars(in.data() + i + 1, in.data() + i + 3, v, 16).ptr != in.data() + i + 3) {
+        ok = false;
+        return out;
+      }
+      out.push_back(static_cast<char>(v));
+      i += 2;
+    } else if (c == '+' && plus_is_space) {
+      out.push_back(' ');
+    } else {
+      out.push_back(c);
+    }
+  }
+  for (char c : out) {
+    if (static_cast<unsigned char>(c) < 0x20) ok = false;  // no control characters anywhere
+  }
+  return out;
+}
+
+template <class T>
+std::optional<T> parse_integer(std::string_view text) {
+  T v{};
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc() || end != text.data() + text.size() || text.empty()) return std::nullopt;
+  return v;
+}
+
+std::optional<double> parse_double(std::string_view text) {
+  double v = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc() || end != text.data() + text.size() || text.empty() || !std::isfinite(v)) {
+    return std::nullopt;
+  }
+  return v;
+}
+
+bool valid_id(std::string_view id) {
+  if (id.empty() || id.size() > 64) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '_';
+  });
+}
+
+std::string slug(std::string_view name) {
+  std::string s;
+  for (char c : name) {
+    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+    const bool keep = (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9');
+    if (keep) {
+      s.push_back(c);
+    } else if (!s.empty() && s.back() != '-') {
+      s.push_back('-');
+    }
+    if (s.size() >= 40) break;
+  }
+  while (!s.empty() && s.back() == '-') s.pop_back();
+  return s.empty() ? "scene" : s;
+}
+
+// The scene's own image references (paths beside a file, for the built-in examples) become the
+// hashes of stored blobs: stored scenes never name files.
+void rewrite_images(json& node, const std::map<std::string, std::string>& hashes) {
+  if (node.is_object()) {
+    if (node.contains("type") && node["type"] == "image" && node.contains("image") &&
+        node["image"].is_string()) {
+      auto it = hashes.find(node["image"].get<std::string>());
+      if (it != hashes.end()) node["image"] = it->second;
+    }
+    for (auto& [key, value] : node.items()) rewrite_images(value, hashes);
+  } else if (node.is_array()) {
+    for (json& value : node) rewrite_images(value, hashes);
+  }
+}
+
+void collect_images(const json& node, std::vector<std::string>& out) {
+  if (node.is_object()) {
+    if (node.contains("type") && node["type"] == "image" && node.contains("image") &&
+        node["image"].is_string()) {
+      out.push_back(node["image"].get<std::string>());
+    }
+    for (const auto& [key, value] : node.items()) collect_images(value, out);
+  } else if (node.is_array()) {
+    for (const json& value : node) collect_images(value, out);
+  }
+}
+
+http::status store_status(const StoreError& e) {
+  switch (e.kind) {
+    case StoreError::Kind::not_found:
+      return http::status::not_found;
+    case StoreError::Kind::conflict:
+      return http::status::precondition_failed;
+    case StoreError::Kind::unavailable:
+      return http::status::service_unavailable;
+  }
+  return http::status::internal_server_error;
+}
+
+Response store_problem(const Request& request, const StoreError& e) {
+  Response r = problem(request, store_status(e),
+                       e.kind == StoreError::Kind::unavailable ? "Store unavailable"
+                       : e.kind == StoreError::Kind::not_found ? "Not found"
+                                                               : "Conflict",
+                       e.message);
+  if (e.kind == StoreError::Kind::unavailable) r.set(http::field::retry_after, "1");
+  return r;
+}
+
+std::string version_etag(const SceneVersion& v) {
+  return quote(v.hash);
+}
+
+bool etag_matches(const Request& request, const std::string& etag) {
+  const auto it = request.find(http::field::if_none_match);
+  if (it == request.end()) return false;
+  const std::string_view header(it->value().data(), it->value().size());
+  if (header == "*") return true;
+  // A list of entity tags; weak comparison is what If-None-Match asks for.
+  std::size_t at = 0;
+  while ((at = header.find('"', at)) != std::string_view::npos) {
+    const std::size_t end = header.find('"', at + 1);
+    if (end == std::string_view::npos) break;
+    if (header.substr(at, end - at + 1) == etag) return true;
+    at = end + 1;
+  }
+  return false;
+}
+
+std::string product_etag(const std::string& body) {
+  return quote(terrain::sha256_hex(body).substr(0, 32));
+}
+
+}  // namespace
+
+Response problem(const Request& request, http::status status, std::string_view title,
+                 std::string_view detail, std::string_view pointer) {
+  json body{{"type", "about:blank"},
+            {"title", title},
+            {"status", static_cast<int>(status)},
+            {"detail", detail}};
+  if (!pointer.empty()) body["pointer"] = pointer;
+  Response r = make_response(request, status, body.dump(), "application/problem+json");
+  r.set(http::field::cache_control, "no-store");
+  return r;
+}
+
+struct App::Target {
+  std::vector<std::string> segments;
+  std::map<std::string, std::string> query;
+  std::string get(const std::string& key, const std::string& fallback = "") const {
+    auto it = query.find(key);
+    return it == query.end() ? fallback : it->second;
+  }
+};
+
+App::App(Config config, std::unique_ptr<Store> store)
+    : config_(std::move(config)), store_(std::move(store)), cache_(config_.cache_bytes) {}
+
+std::string App::route_label(const Request& request) {
+  const std::string_view t(request.target().data(), request.target().size());
+  const std::string_view path = t.substr(0, t.find('?'));
+  if (path == "/healthz" || path == "/metrics") return std::string(path.substr(1));
+  if (!path.starts_with("/api/v1/")) return path == "/" ? "client" : "other";
+  for (const char* kind :
+       {"/tiles/", "/mesh/", "/versions", "/program", "/sample", "/tilejson.json", "/layer.json"}) {
+    if (path.find(kind) != std::string_view::npos) {
+      std::string label(kind);
+      label.erase(std::remove(label.begin(), label.end(), '/'), label.end());
+      return label;
+    }
+  }
+  if (path.starts_with("/api/v1/images")) return "images";
+  return path == "/api/v1/scenes" ? "scenes" : "scene";
+}
+
+void App::add_cors(const Request& request, Response& response) const {
+  const auto origin = request.find(http::field::origin);
+  if (origin == request.end() || config_.cors_origins.empty()) return;
+  const std::string value(origin->value());
+  const bool any = std::find(config_.cors_origins.begin(), config_.cors_origins.end(), "*") !=
+                   config_.cors_origins.end();
+  if (!any && std::find(config_.cors_origins.begin(), config_.cors_origins.end(), value) ==
+                  config_.cors_origins.end()) {
+    return;
+  }
+  response.set(http::field::access_control_allow_origin, any ? "*" : value);
+  response.set(http::field::access_control_expose_headers,
+               "ETag, Content-Encoding, Content-Length, X-Gray16-Offset, X-Gray16-Scale");
+  if (!any) response.set(http::field::vary, "Origin");
+}
+
+Outcome App::handle(const Request& request) {
+  try {
+    const std::string_view raw(request.target().data(), request.target().size());
+    if (raw.empty() || raw.front() != '/') {
+      return problem(request, http::status::bad_request, "Bad request target",
+                     "the target must be an absolute path");
+    }
+    Target target;
+    bool ok = true;
+    const std::size_t q = raw.find('?');
+    const std::string_view path = raw.substr(0, q);
+    std::size_t start = 1;
+    while (start <= path.size()) {
+      const std::size_t slash = path.find('/', start);
+      const std::string_view seg =
+          path.substr(start, slash == std::string_view::npos ? path.npos : slash - start);
+      if (!seg.empty()) {
+        std::string decoded = percent_decode(seg, false, ok);
+        if (decoded == ".." || decoded == "." || decoded.find('/') != std::string::npos) ok = false;
+        target.segments.push_back(std::move(decoded));
+      }
+      if (slash == std::string_view::npos) break;
+      start = slash + 1;
+    }
+    if (q != std::string_view::npos) {
+      std::string_view query = raw.substr(q + 1);
+      int count = 0;
+      while (!query.empty()) {
+        const std::size_t amp = query.find('&');
+        const std::string_view pair = query.substr(0, amp);
+        if (!pair.empty()) {
+          const std::size_t eq = pair.find('=');
+          std::string key = percent_decode(pair.substr(0, eq), true, ok);
+          std::string value =
+              eq == std::string_view::npos ? "" : percent_decode(pair.substr(eq + 1), true, ok);
+          target.query[std::move(key)] = std::move(value);
+          if (++count > 32) ok = false;
+        }
+        if (amp == std::string_view::npos) break;
+        query.remove_prefix(amp + 1);
+      }
+    }
+    if (!ok) {
+      return problem(request, http::status::bad_request, "Bad request target",
+                     "the path or query is malformed (bad percent-encoding, control "
+                     "characters, dot segments or too many parameters)");
+    }
+    Outcome outcome = route(request, target);
+    if (Response* r = std::get_if<Response>(&outcome)) add_cors(request, *r);
+    return outcome;
+  } catch (const std::exception& e) {
+    // A broken internal contract: answer 500 rather than drop the connection.
+    return problem(request, http::status::internal_server_error, "Internal error", e.what());
+  }
+}
+
+Outcome App::route(const Request& request, const Target& target) {
+  const auto& s = target.segments;
+  const http::verb method = request.method();
+  auto not_allowed = [&](const char* allow) {
+    Response r = problem(request, http::status::method_not_allowed, "Method not allowed",
+                         std::string(request.method_string()) + " is not allowed here");
+    r.set(http::field::allow, allow);
+    return r;
+  };
+  if (method == http::verb::options) {
+    Response r = make_response(request, http::status::no_content, "", "text/plain");
+    add_cors(request, r);
+    r.set(http::field::access_control_allow_methods, "GET, HEAD, POST, PUT, OPTIONS");
+    r.set(http::field::access_control_allow_headers,
+          "Authorization, Content-Type, If-Match, If-None-Match");
+    r.set(http::field::access_control_max_age, "86400");
+    return r;
+  }
+  const bool read = method == http::verb::get || method == http::verb::head;
+  if (s.size() == 1 && s[0] == "healthz") {
+    if (!read) return not_allowed("GET, HEAD");
+    Response r = json_response(request, http::status::ok, {{"status", "ok"}});
+    r.set(http::field::cache_control, "no-store");
+    return r;
+  }
+  if (s.size() == 1 && s[0] == "metrics") {
+    if (!read) return not_allowed("GET, HEAD");
+    Response r = make_response(request, http::status::ok, metrics_.prometheus(cache_),
+                               "text/plain; version=0.0.4");
+    r.set(http::field::cache_control, "no-store");
+    return r;
+  }
+  if (s.size() >= 2 && s[0] == "api" && s[1] == "v1") {
+    if (s.size() == 3 && s[2] == "images") {
+      if (method != http::verb::post) return not_allowed("POST");
+      return upload_image(request);
+    }
+    if (s.size() >= 3 && s[2] == "scenes") {
+      if (s.size() == 3) {
+        if (read) return list_scenes(request);
+        if (method == http::verb::post) return create_scene(request, target);
+        return not_allowed("GET, HEAD, POST");
+      }
+      const std::string& ref = s[3];
+      if (s.size() == 4) {
+        if (read) return get_scene(request, ref);
+        if (method == http::verb::put) return put_scene(request, ref);
+        return not_allowed("GET, HEAD, PUT");
+      }
+      if (s.size() == 5 && s[4] == "versions") {
+        if (!read) return not_allowed("GET, HEAD");
+        return versions(request, ref);
+      }
+      if (!read) return not_allowed("GET, HEAD");
+      return scene_product(request, ref, std::vector<std::string>(s.begin() + 4, s.end()), target);
+    }
+  }
+  return problem(request, http::status::not_found, "Not found",
+                 "no route for " + std::string(request.target()));
+}
+
+Response App::authorize(const Request& request) const {
+  if (config_.write_token.empty()) {
+    return problem(request, http::status::forbidden, "Writes disabled",
+                   "this server has no write token configured (auth.write_token)");
+  }
+  const auto it = request.find(http::field::authorization);
+  if (it == request.end()) {
+    Response r = problem(request, http::status::unauthorized, "Authorization required",
+                         "writes need 'Authorization: Bearer <write token>'");
+    r.set(http::field::www_authenticate, "Bearer");
+    return r;
+  }
+  const std::string expected = "Bearer " + config_.write_token;
+  const std::string_view given(it->value().data(), it->value().size());
+  // Constant-time comparison: the token must not leak through response timing.
+  unsigned diff = given.size() == expected.size() ? 0u : 1u;
+  for (std::size_t i = 0; i < given.size(); ++i) {
+    diff |= static_cast<unsigned>(given[i] ^ expected[i % expected.size()]);
+  }
+  if (diff != 0) {
+    return problem(request, http::status::forbidden, "Forbidden", "the write token is wrong");
+  }
+  Response ok{http::status::ok, request.version()};
+  return ok;
+}
+
+terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> App::parse_stored(
+    const std::string& text) {
+  terrain::ParseOptions options;
+  options.images = [this](std::string_view reference) -> terrain::Result<terrain::Raster> {
+    if (!reference.starts_with("sha256:")) {
+      return Error{"images are referenced by the hash of an uploaded image (POST /api/v1/images)",
+                   ""};
+    }
+    StoreResult<Blob> blob = store_->blob(std::string(reference));
+    if (!blob) return Error{blob.error().message, ""};
+    return terrain::decode_heightfield(blob->bytes, blob->media_type);
+  };
+  terrain::Result<terrain::Scene> scene = terrain::parse_scene_text(text, options);
+  if (!scene) return scene.error();
+  return std::make_shared<const terrain::Scene>(std::move(scene).value());
+}
+
+terrain::Result<LoadedVersion, Response> App::load_version(const Request& request,
+                                                           const SceneVersion& version) {
+  {
+    std::lock_guard lock(versions_mutex_);
+    auto it = loaded_.find(version.hash);
+    if (it != loaded_.end()) {
+      LoadedVersion loaded = it->second;
+      loaded.version = version;
+      return loaded;
+    }
+  }
+  auto scene = parse_stored(version.canonical_json);
+  if (!scene) {
+    return problem(request, http::status::internal_server_error, "Stored scene unreadable",
+                   scene.error().message, scene.error().pointer);
+  }
+  terrain::Result<terrain::TileSource> source = terrain::TileSource::from_scene(**scene);
+  if (!source) {
+    return problem(request, http::status::internal_server_error, "Stored scene unreadable",
+                   source.error().message, source.error().pointer);
+  }
+  LoadedVersion loaded{version, std::make_shared<const terrain::TileSource>(std::move(*source)),
+                       *scene};
+  loaded.version.canonical_json.clear();  // the parsed scene holds it
+  std::lock_guard lock(versions_mutex_);
+  if (loaded_.size() >= kLoadedVersions) loaded_.clear();
+  loaded_.emplace(version.hash, loaded);
+  loaded.version = version;
+  return loaded;
+}
+
+terrain::Result<LoadedVersion, Response> App::resolve(const Request& request,
+                                                      const std::string& ref) {
+  const std::size_t at = ref.find('@');
+  const std::string id = ref.substr(0, at);
+  if (!valid_id(id)) {
+    return problem(request, http::status::bad_request, "Bad scene id",
+                   "scene ids are 1 to 64 characters of a-z, 0-9, '-' and '_'", "/id");
+  }
+  StoreResult<SceneVersion> version = StoreError{};
+  if (at == std::string::npos) {
+    version = store_->head(id);
+  } else {
+    const std::string token = ref.substr(at + 1);
+    if (token.starts_with("sha256:")) {
+      version = store_->version_by_hash(id, token);
+    } else if (auto n = parse_integer<std::int64_t>(token); n && *n >= 1) {
+      version = store_->version(id, *n);
+    } else {
+      return problem(request, http::status::bad_request, "Bad version",
+                     "a version is a number from 1 or a sha256: hash", "/version");
+    }
+  }
+  if (!version) return store_problem(request, version.error());
+  return load_version(request, *version);
+}
+
+Response App::list_scenes(const Request& request) {
+  StoreResult<std::vector<SceneSummary>> scenes = store_->list_scenes();
+  if (!scenes) return store_problem(request, scenes.error());
+  json list = json::array();
+  for (const SceneSummary& s : *scenes) {
+    list.push_back({{"id", s.id},
+                    {"name", s.name},
+                    {"version", s.head_version},
+                    {"hash", s.head_hash},
+                    {"url", "/api/v1/scenes/" + s.id}});
+  }
+  Response r = json_response(request, http::status::ok, {{"scenes", list}});
+  r.set(http::field::cache_control, "no-cache");
+  return r;
+}
+
+Response App::create_scene(const Request& request, const Target& target) {
+  if (Response auth = authorize(request); auth.result() != http::status::ok) return auth;
+  auto scene = parse_stored(request.body());
+  if (!scene) {
+    return problem(request, http::status::bad_request, "Invalid scene", scene.error().message,
+                   scene.error().pointer);
+  }
+  std::string id = target.get("id");
+  if (!id.empty() && !valid_id(id)) {
+    return problem(request, http::status::bad_request, "Bad scene id",
+                   "scene ids are 1 to 64 characters of a-z, 0-9, '-' and '_'", "/id");
+  }
+  SceneVersion first;
+  first.name = (*scene)->name;
+  first.hash = (*scene)->hash;
+  first.canonical_json = (*scene)->canonical_text();
+  first.author = "api";
+  StoreResult<SceneVersion> created = StoreError{};
+  if (!id.empty()) {
+    created = store_->create_scene(id, first);
+  } else {
+    // A readable id from the name; a number appended while it is taken.
+    const std::string base = slug(first.name);
+    for (int n = 1; n < 1000; ++n) {
+      id = n == 1 ? base : base + "-" + std::to_string(n);
+      created = store_->create_scene(id, first);
+      if (created || created.error().kind != StoreError::Kind::conflict) break;
+    }
+  }
+  if (!created) {
+    if (created.error().kind == StoreError::Kind::conflict) {
+      return problem(request, http::status::conflict, "Scene exists", created.error().message,
+                     "/id");
+    }
+    return store_problem(request, created.error());
+  }
+  Response r = json_response(request, http::status::created,
+                             {{"id", created->scene_id},
+                              {"version", created->version},
+                              {"hash", created->hash},
+                              {"url", "/api/v1/scenes/" + created->scene_id}});
+  r.set(http::field::location, "/api/v1/scenes/" + created->scene_id);
+  r.set(http::field::etag, version_etag(*created));
+  return r;
+}
+
+Response App::put_scene(const Request& request, const std::string& id) {
+  if (!valid_id(id)) {
+    return problem(request, http::status::bad_request, "Bad scene id",
+                   "PUT names a scene id (no @version): 1 to 64 characters of a-z, 0-9, '-', '_'",
+                   "/id");
+  }
+  if (Response auth = authorize(request); auth.result() != http::status::ok) return auth;
+  auto scene = parse_stored(request.body());
+  if (!scene) {
+    return problem(request, http::status::bad_request, "Invalid scene", scene.error().message,
+                   scene.error().pointer);
+  }
+  StoreResult<SceneVersion> head = store_->head(id);
+  if (!head) return store_problem(request, head.error());
+  std::optional<std::int64_t> expected;
+  if (const auto it = request.find(http::field::if_match); it != request.end()) {
+    const std::string_view given(it->value().data(), it->value().size());
+    if (given != "*" && given != version_etag(*head)) {
+      Response r =
+          problem(request, http::status::precondition_failed, "Version mismatch",
+                  "the scene is at " + version_etag(*head) + ", not " + std::string(given));
+      r.set(http::field::etag, version_etag(*head));
+      return r;
+    }
+    expected = head->version;  // the store refuses if another writer got in between
+  }
+  SceneVersion next;
+  next.name = (*scene)->name;
+  next.hash = (*scene)->hash;
+  next.canonical_json = (*scene)->canonical_text();
+  next.author = "api";
+  StoreResult<SceneVersion> stored = store_->add_version(id, next, expected);
+  if (!stored) {
+    if (stored.error().kind == StoreError::Kind::conflict) {
+      return problem(request, http::status::precondition_failed, "Version mismatch",
+                     stored.error().message);
+    }
+    return store_problem(request, stored.error());
+  }
+  Response r =
+      json_response(request, http::status::ok,
+                    {{"id", stored->scene_id},
+                     {"version", stored->version},
+                     {"hash", stored->hash},
+                     {"url", "/api/v1/scenes/" + id + "@" + std::to_string(stored->version)}});
+  r.set(http::field::etag, version_etag(*stored));
+  return r;
+}
+
+Response App::get_scene(const Request& request, const std::string& ref) {
+  auto loaded = resolve(request, ref);
+  if (!loaded) return loaded.error();
+  const std::string etag = version_etag(loaded->version);
+  const bool pinned = ref.find('@') != std::string::npos;
+  auto cache_headers = [&](Response& r) {
+    r.set(http::field::etag, etag);
+    r.set(http::field::cache_control,
+          pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate");
+  };
+  if (etag_matches(request, etag)) {
+    Response r = make_response(request, http::status::not_modified, "", "application/json");
+    cache_headers(r);
+    return r;
+  }
+  Response r = json_response(request, http::status::ok, loaded->scene->canonical);
+  cache_headers(r);
+  r.set("X-Scene-Version", std::to_string(loaded->version.version));
+  return r;
+}
+
+Response App::versions(const Request& request, const std::string& id) {
+  if (!valid_id(id)) {
+    return problem(request, http::status::bad_request, "Bad scene id", "bad scene id", "/id");
+  }
+  StoreResult<std::vector<SceneVersion>> all = store_->versions(id);
+  if (!all) return store_problem(request, all.error());
+  json list = json::array();
+  for (const SceneVersion& v : *all) {
+    list.push_back({{"version", v.version},
+                    {"hash", v.hash},
+                    {"name", v.name},
+                    {"author", v.author},
+                    {"created_ms", v.created_ms},
+                    {"url", "/api/v1/scenes/" + id + "@" + std::to_string(v.version)}});
+  }
+  Response r = json_response(request, http::status::ok, {{"id", id}, {"versions", list}});
+  r.set(http::field::cache_control, "no-cache");
+  return r;
+}
+
+Response App::upload_image(const Request& request) {
+  if (Response auth = authorize(request); auth.result() != http::status::ok) return auth;
+  const std::string& body = request.body();
+  const auto* bytes = reinterpret_cast<const std::uint8_t*>(body.data());
+  // Format and dimensions are checked by the decoder's limits before any pixel is decoded.
+  terrain::Result<terrain::Raster> raster =
+      terrain::decode_heightfield(std::span<const std::uint8_t>(bytes, body.size()), "png");
+  if (!raster) {
+    return problem(request, http::status::bad_request, "Invalid image", raster.error().message,
+                   "/image");
+  }
+  std::string media = "image/png";
+  if (body.size() >= 4 && (body.compare(0, 2, "II") == 0 || body.compare(0, 2, "MM") == 0)) {
+    media = "image/tiff";
+  } else if (body.size() >= 4 && static_cast<unsigned char>(body[0]) == 0x76 &&
+             static_cast<unsigned char>(body[1]) == 0x2f) {
+    media = "image/x-exr";
+  }
+  Blob blob{content_hash(body.data(), body.size()), media,
+            std::vector<std::uint8_t>(bytes, bytes + body.size())};
+  StoreResult<bool> stored = store_->put_blob(blob);
+  if (!stored) return store_problem(request, stored.error());
+  return json_response(request, http::status::created,
+                       {{"hash", blob.hash},
+                        {"media_type", media},
+                        {"width", raster->width},
+                        {"height", raster->height}});
+}
+
+Outcome App::scene_product(const Request& request, const std::string& ref,
+                           const std::vector<std::string>& rest, const Target& target) {
+  auto loaded_or = resolve(request, ref);
+  if (!loaded_or) return loaded_or.error();
+  const LoadedVersion loaded = std::move(loaded_or).value();
+  const bool pinned = ref.find('@') != std::string::npos;
+  const std::string id = loaded.version.scene_id;
+  const std::string pinned_ref = id + "@" + std::to_string(loaded.version.version);
+  const std::string cache_control =
+      pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate";
+  const terrain::Program& program = *loaded.source->terrain;
+
+  auto finish_json = [&](const json& body, std::string_view media = "application/json") {
+    Response r = json_response(request, http::status::ok, body, media);
+    r.set(http::field::cache_control, cache_control);
+    return r;
+  };
+
+  if (rest.size() == 1 && rest[0] == "program") {
+    json body = program.to_json();
+    body["scene_id"] = id;
+    body["version"] = loaded.version.version;
+    return finish_json(body);
+  }
+  if (rest.size() == 1 && rest[0] == "sample") {
+    const auto x = parse_double(target.get("x")), y = parse_double(target.get("y"));
+    const auto lod = parse_double(target.get("lod", "0"));
+    if (!x || std::abs(*x) > 1e7) {
+      return problem(request, http::status::bad_request, "Bad sample", "x must be a number", "/x");
+    }
+    if (!y || std::abs(*y) > 1e7) {
+      return problem(request, http::status::bad_request, "Bad sample", "y must be a number", "/y");
+    }
+    if (!lod || *lod < 0 || *lod > 1e6) {
+      return problem(request, http::status::bad_request, "Bad sample",
+                     "lod must be a sample spacing in metres, 0 to 1e6", "/lod");
+    }
+    terrain::Evaluator evaluator(program);
+    const terrain::FieldSample s = evaluator.sample(
+        {static_cast<float>(*x), static_cast<float>(*y)}, static_cast<float>(*lod));
+    const terrain::NodeBounds& b = evaluator.global_bounds();
+    return finish_json({{"x", *x},
+                        {"y", *y},
+                        {"lod", *lod},
+                        {"elevation", s.elevation},
+                        {"weight", s.weight},
+                        {"gradient", {s.elevation_gradient.x, s.elevation_gradient.y}},
+                        {"lipschitz", b.elevation_lipschitz},
+                        {"version", loaded.version.version}});
+  }
+  if (rest.size() == 1 && rest[0] == "layer.json") {
+    terrain::LayerJsonOptions options;
+    options.name = loaded.scene->name;
+    options.version = std::to_string(loaded.version.version);
+    options.tiles = {"/api/v1/scenes/" + pinned_ref + "/mesh/{z}/{x}/{y}.terrain"};
+    terrain::ProductMaker maker(*loaded.source);
+    return finish_json(maker.layer_json(options));
+  }
+  if (rest.size() == 1 && rest[0] == "tilejson.json") {
+    Result<terrain::TileScheme> scheme = terrain::parse_scheme(target.get("scheme", "webmercator"));
+    if (!scheme || *scheme == terrain::TileScheme::geographic) {
+      return problem(request, http::status::bad_request, "Bad scheme",
+                     "TileJSON describes XYZ tiles: scheme webmercator (default) or local",
+                     "/scheme");
+    }
+    const std::string encoding = target.get("encoding", "terrain-rgb");
+    if (encoding != "terrain-rgb" && encoding != "terrarium") {
+      return problem(request, http::status::bad_request, "Bad encoding",
+                     "TileJSON for raster-dem: encoding terrain-rgb or terrarium", "/encoding");
+    }
+    terrain::ProductMaker maker(*loaded.source);
+    const auto host = request.find(http::field::host);
+    const std::string origin = host == request.end() ? "" : "http://" + std::string(host->value());
+    const std::string scheme_name(terrain::scheme_name(*scheme));
+    json body{{"tilejson", "3.0.0"},
+              {"name", loaded.scene->name},
+              {"version", "1.0.0"},
+              {"scheme", "xyz"},
+              {"tiles",
+               {origin + "/api/v1/scenes/" + pinned_ref +
+                "/tiles/{z}/{x}/{y}.png?encoding=" + encoding + "&scheme=" + scheme_name}},
+              {"minzoom", 0},
+              {"maxzoom", maker.constants().max_useful_zoom[static_cast<int>(*scheme)]},
+              {"tileSize", 256},
+              {"encoding", encoding == "terrain-rgb" ? "mapbox" : "terrarium"}};
+    if (*scheme == terrain::TileScheme::webmercator) {
+      const terrain::Georeference& g = loaded.source->georeference;
+      const terrain::TileRange r =
+          terrain::tiles_covering_area(*loaded.source, terrain::TileScheme::geographic, 14);
+      const double step = 180.0 / 16384.0;
+      auto d = [](std::int64_t v) { return static_cast<double>(v); };
+      body["bounds"] = {-180.0 + d(r.min_x) * step, -90.0 + d(r.min_y) * step,
+                        -180.0 + d(r.max_x + 1) * step, -90.0 + d(r.max_y + 1) * step};
+      body["center"] = {g.longitude, g.latitude, 12};
+    }
+    return finish_json(body);
+  }
+
+  // Tiles and meshes: /tiles/{z}/{x}/{y}.{png,tif}, /mesh/{z}/{x}/{y}.{terrain,glb,drc}
+  if (rest.size() != 4 || (rest[0] != "tiles" && rest[0] != "mesh")) {
+    return problem(request, http::status::not_found, "Not found",
+                   "no product '" + (rest.empty() ? std::string() : rest[0]) + "' of a scene");
+  }
+  const bool mesh = rest[0] == "mesh";
+  const std::string& last = rest[3];
+  const std::size_t dot = last.rfind('.');
+  if (dot == std::string::npos) {
+    return problem(request, http::status::not_found, "Unknown format",
+                   "the tile name needs an extension", "/format");
+  }
+  const auto z = parse_integer<int>(rest[1]);
+  const auto x = parse_integer<std::int64_t>(rest[2]);
+  const auto y = parse_integer<std::int64_t>(last.substr(0, dot));
+  if (!z)
+    return problem(request, http::status::bad_request, "Bad tile address", "z must be an integer",
+                   "/z");
+  if (!x)
+    return problem(request, http::status::bad_request, "Bad tile address", "x must be an integer",
+                   "/x");
+  if (!y)
+    return problem(request, http::status::bad_request, "Bad tile address", "y must be an integer",
+                   "/y");
+  const std::string extension = last.substr(dot + 1);
+  Result<terrain::TileFormat> format =
+      terrain::parse_tile_format(extension, target.get("encoding"));
+  if (!format) {
+    return problem(
+        request,
+        format.error().pointer == "/format" ? http::status::not_found : http::status::bad_request,
+        "Unknown format", format.error().message, format.error().pointer);
+  }
+  const terrain::TileFormatInfo& info = terrain::format_info(*format);
+  if (info.mesh != mesh) {
+    return problem(
+        request, http::status::not_found, "Unknown format",
+        "." + extension +
+            (mesh ? " is not a mesh format (use /tiles/)" : " is a mesh format (use /mesh/)"),
+        "/format");
+  }
+  const char* default_scheme = *format == terrain::TileFormat::quantized_mesh ? "geographic"
+                               : mesh                                         ? "local"
+                                                                              : "webmercator";
+  Result<terrain::TileScheme> scheme = terrain::parse_scheme(target.get("scheme", default_scheme));
+  if (!scheme) {
+    return problem(request, http::status::bad_request, "Bad scheme", scheme.error().message,
+                   "/scheme");
+  }
+  terrain::ProductOptions options;
+  auto integer_option = [&](const char* key, int& out, int fallback) -> bool {
+    const std::string text = target.get(key);
+    if (text.empty()) {
+      out = fallback;
+      return true;
+    }
+    auto v = parse_integer<int>(text);
+    if (!v) return false;
+    out = *v;
+    return true;
+  };
+  int border = 0;
+  if (!integer_option("size", options.size, 256)) {
+    return problem(request, http::status::bad_request, "Bad option", "size must be an integer",
+                   "/size");
+  }
+  if (!integer_option("grid", options.grid, 65)) {
+    return problem(request, http::status::bad_request, "Bad option", "grid must be an integer",
+                   "/grid");
+  }
+  if (!integer_option("border", border, 0) || (border != 0 && border != 1)) {
+    return problem(request, http::status::bad_request, "Bad option", "border must be 0 or 1",
+                   "/border");
+  }
+  options.border = border == 1;
+  if (const std::string e = target.get("max_error"); !e.empty()) {
+    options.max_error = parse_double(e);
+    if (!options.max_error) {
+      return problem(request, http::status::bad_request, "Bad option",
+                     "max_error must be a number of metres", "/max_error");
+    }
+  }
+  if (*format == terrain::TileFormat::quantized_mesh) {
+    // Cesium lists the extensions it wants: application/vnd.quantized-mesh;extensions=a-b-c
+    const auto accept = request.find(http::field::accept);
+    const std::string a = accept == request.end() ? "" : std::string(accept->value());
+    options.octvertexnormals = a.find("octvertexnormals") != std::string::npos;
+    options.watermask = a.find("watermask") != std::string::npos;
+    options.metadata = a.find("metadata") != std::string::npos;
+  }
+  // Everything about the request is checked before any work: a throwaway maker validates.
+  const terrain::TileAddress address{*z, *x, *y};
+  if (terrain::Status valid = terrain::validate_address(*scheme, address); !valid) {
+    return problem(request, http::status::bad_request, "Bad tile address", valid.error().message,
+                   valid.error().pointer);
+  }
+  const double samples =
+      mesh ? static_cast<double>(options.grid) * options.grid +
+                 (options.watermask && loaded.source->water ? 65536.0 : 0.0)
+           : static_cast<double>(options.size + 2 * border) * (options.size + 2 * border);
+  const double cost = samples * static_cast<double>(std::max<std::size_t>(program.code.size(), 1));
+  if (cost > config_.max_cost) {
+    return problem(request, http::status::unprocessable_entity, "Too costly",
+                   "this product would cost " + std::to_string(static_cast<long long>(cost)) +
+                       " (samples x program size), above the limit of " +
+                       std::to_string(static_cast<long long>(config_.max_cost)));
+  }
+  std::ostringstream key;
+  key << loaded.version.hash << '|' << terrain::scheme_name(*scheme) << '|' << *z << '/' << *x
+      << '/' << *y << '|' << extension << '|' << target.get("encoding") << '|' << options.size
+      << '|' << border << '|' << options.grid << '|'
+      << (options.max_error ? std::to_string(*options.max_error) : "auto") << '|'
+      << options.octvertexnormals << options.watermask << options.metadata;
+  const std::string cache_key = key.str();
+  const bool gzip_ok = accepts_gzip(request);
+  const std::string if_none_match = [&] {
+    const auto it = request.find(http::field::if_none_match);
+    return it == request.end() ? std::string() : std::string(it->value());
+  }();
+  const unsigned version = request.version();
+  const bool keep_alive = request.keep_alive();
+  const bool head_only = request.method() == http::verb::head;
+  const auto gray16 = terrain::gray16_encoding_for(loaded.source->elevation_range);
+
+  // The response for a product, fresh or cached.
+  auto respond = [=, this](const CachedProduct& p) {
+    Request shadow{http::verb::get, "/", version};
+    if (!if_none_match.empty()) shadow.set(http::field::if_none_match, if_none_match);
+    shadow.keep_alive(keep_alive);
+    Response r{http::status::ok, version};
+    r.set(http::field::server, "terrain-server");
+    r.keep_alive(keep_alive);
+    r.set(http::field::etag, p.etag);
+    r.set(http::field::cache_control, cache_control);
+    r.set(http::field::vary, "Accept-Encoding, Origin");
+    if (*format == terrain::TileFormat::gray16) {
+      r.set("X-Gray16-Offset", std::to_string(gray16.offset));
+      r.set("X-Gray16-Scale", std::to_string(gray16.scale));
+    }
+    if (etag_matches(shadow, p.etag)) {
+      r.result(http::status::not_modified);
+      return r;
+    }
+    r.set(http::field::content_type, p.media_type);
+    if (p.content_encoding == "gzip" && !gzip_ok) {
+      auto raw = terrain::gzip_decompress(
+          std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(p.body.data()),
+                                        p.body.size()),
+          std::size_t{1} << 28);
+      r.body().assign(raw->begin(), raw->end());
+    } else {
+      if (!p.content_encoding.empty()) r.set(http::field::content_encoding, p.content_encoding);
+      r.body() = p.body;
+    }
+    r.prepare_payload();
+    if (head_only) r.body().clear();
+    return r;
+  };
+
+  if (auto hit = cache_.find(cache_key)) return respond(*hit);
+
+  auto source = loaded.source;
+  const std::string version_hash = loaded.version.hash;
+  const terrain::TileScheme s = *scheme;
+  const terrain::TileFormat f = *format;
+  Deferred deferred;
+  deferred.cost = cost;
+  deferred.work = [=, this]() -> Response {
+    thread_local std::unordered_map<std::string, std::unique_ptr<terrain::ProductMaker>> makers;
+    if (makers.size() > kMakersPerThread && !makers.contains(version_hash)) makers.clear();
+    std::unique_ptr<terrain::ProductMaker>& maker = makers[version_hash];
+    if (!maker) maker = std::make_unique<terrain::ProductMaker>(*source);
+    const auto start = std::chrono::steady_clock::now();
+    Result<terrain::Product> product = maker->make(s, address, f, options);
+    metrics_.generation(
+        terrain::format_info(f).encoding.empty() ? terrain::format_info(f).extension
+                                                 : terrain::format_info(f).encoding,
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "cpu");
+    if (!product) {
+      Request shadow{http::verb::get, "/", version};
+      shadow.keep_alive(keep_alive);
+      return problem(shadow, http::status::bad_request, "Bad tile request", product.error().message,
+                     product.error().pointer);
+    }
+    auto cached = std::make_shared<CachedProduct>();
+    cached->body.assign(product->bytes.begin(), product->bytes.end());
+    cached->media_type = product->media_type;
+    cached->content_encoding = product->content_encoding;
+    cached->etag = product_etag(cached->body);
+    cache_.insert(cache_key, cached);
+    return respond(*cached);
+  };
+  return deferred;
+}
+
+terrain::Status App::seed_examples() {
+  StoreResult<bool> empty = store_->empty();
+  if (!empty) return Error{empty.error().message, ""};
+  if (!*empty) return terrain::Ok{};
+  std::error_code ec;
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(config_.scenes_dir, ec)) {
+    if (entry.path().extension() == ".json") files.push_back(entry.path());
+  }
+  if (ec) return Error{"cannot read " + config_.scenes_dir + ": " + ec.message(), ""};
+  std::sort(files.begin(), files.end());
+  for (const fs::path& file : files) {
+    std::ifstream in(file);
+    json document = json::parse(in, nullptr, false);
+    if (document.is_discarded()) return Error{file.string() + ": not JSON", ""};
+    std::vector<std::string> images;
+    collect_images(document, images);
+    std::map<std::string, std::string> hashes;
+    for (const std::string& image : images) {
+      const fs::path path = file.parent_path() / image;
+      std::ifstream img(path, std::ios::binary);
+      const std::string bytes((std::istreambuf_iterator<char>(img)),
+                              std::istreambuf_iterator<char>());
+      if (!img && bytes.empty()) return Error{"cannot read " + path.string(), ""};
+      Blob blob{content_hash(bytes.data(), bytes.size()), "image/png",
+                std::vector<std::uint8_t>(bytes.begin(), bytes.end())};
+      if (StoreResult<bool> s = store_->put_blob(blob); !s) return Error{s.error().message, ""};
+      hashes[image] = blob.hash;
+    }
+    rewrite_images(document, hashes);
+    auto scene = parse_stored(document.dump());
+    if (!scene) return Error{file.string() + ": " + scene.error().message, scene.error().pointer};
+    SceneVersion first;
+    first.name = (*scene)->name;
+    first.hash = (*scene)->hash;
+    first.canonical_json = (*scene)->canonical_text();
+    first.author = "built-in";
+    StoreResult<SceneVersion> created = store_->create_scene(file.stem().string(), first);
+    if (!created) return Error{created.error().message, ""};
+  }
+  return terrain::Ok{};
+}
+
+}  // namespace server

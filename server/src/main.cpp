@@ -1,0 +1,56 @@
+// terrain-server: configuration, store, built-in scenes, then HTTP until SIGINT/SIGTERM.
+#include <boost/asio/signal_set.hpp>
+
+#include <iostream>
+#include <thread>
+
+#include "server/app.hpp"
+#include "server/net.hpp"
+
+int main(int argc, char** argv) {
+  std::vector<std::string_view> args(argv + 1, argv + argc);
+  auto startup = server::load_config(args, server::process_environment());
+  if (!startup) {
+    std::cerr << "terrain-server: " << startup.error().pointer << ": " << startup.error().message
+              << "\n";
+    return 2;
+  }
+  if (startup->show_help) {
+    std::cout << server::help_text();
+    return 0;
+  }
+  const server::Config& config = startup->config;
+  auto store = server::open_sqlite_store(config.data_dir);
+  if (!store) {
+    std::cerr << "terrain-server: store: " << store.error().message << "\n";
+    return 1;
+  }
+  server::App app(config, std::move(store).value());
+  if (terrain::Status seeded = app.seed_examples(); !seeded) {
+    std::cerr << "terrain-server: built-in scenes: " << seeded.error().message << "\n";
+    return 1;
+  }
+  server::HttpServer http(app, config);
+  auto port = http.listen();
+  if (!port) {
+    std::cerr << "terrain-server: " << port.error().message << "\n";
+    return 1;
+  }
+  // Signals are waited for on a thread of their own so that shutdown never depends on a free
+  // I/O thread.
+  boost::asio::io_context signals_io;
+  boost::asio::signal_set signals(signals_io, SIGINT, SIGTERM);
+  signals.async_wait([&](const boost::system::error_code& ec, int signal) {
+    if (ec) return;
+    std::cerr << "terrain-server: signal " << signal << ", draining\n";
+    http.stop();
+  });
+  std::thread signal_thread([&] { signals_io.run(); });
+  std::cout << "terrain-server listening on http://" << config.address << ":" << *port << " (data "
+            << config.data_dir << ", backend cpu)" << std::endl;
+  http.run();
+  signals_io.stop();
+  signal_thread.join();
+  std::cerr << "terrain-server: stopped\n";
+  return 0;
+}

@@ -1,0 +1,82 @@
+#include "server/metrics.hpp"
+
+#include <sstream>
+
+#include "server/cache.hpp"
+
+namespace server {
+
+void Metrics::Histogram::add(double v) {
+  for (std::size_t i = 0; i < kBuckets.size(); ++i) {
+    if (v <= kBuckets[i]) ++counts[i];
+  }
+  ++count;
+  sum += v;
+}
+
+void Metrics::request(std::string_view route, int status, double seconds) {
+  std::lock_guard lock(mutex_);
+  ++requests_[{std::string(route), status}];
+  latency_[std::string(route)].add(seconds);
+}
+
+void Metrics::generation(std::string_view product, double seconds, std::string_view backend) {
+  std::lock_guard lock(mutex_);
+  generation_[{std::string(product), std::string(backend)}].add(seconds);
+}
+
+namespace {
+
+void histogram_lines(std::ostringstream& out, const std::string& name, const std::string& labels,
+                     const std::array<std::int64_t, Metrics::kBuckets.size()>& counts,
+                     std::int64_t count, double sum) {
+  const std::string sep = labels.empty() ? "" : ",";
+  for (std::size_t i = 0; i < Metrics::kBuckets.size(); ++i) {
+    out << name << "_bucket{" << labels << sep << "le=\"" << Metrics::kBuckets[i] << "\"} "
+        << counts[i] << "\n";
+  }
+  out << name << "_bucket{" << labels << sep << "le=\"+Inf\"} " << count << "\n";
+  out << name << "_sum{" << labels << "} " << sum << "\n";
+  out << name << "_count{" << labels << "} " << count << "\n";
+}
+
+}  // namespace
+
+std::string Metrics::prometheus(const ProductCache& cache) const {
+  std::ostringstream out;
+  std::lock_guard lock(mutex_);
+  out << "# HELP terrain_requests_total HTTP requests by route and status.\n"
+         "# TYPE terrain_requests_total counter\n";
+  for (const auto& [key, n] : requests_) {
+    out << "terrain_requests_total{route=\"" << key.first << "\",status=\"" << key.second << "\"} "
+        << n << "\n";
+  }
+  out << "# HELP terrain_request_seconds Time from a complete request to its response.\n"
+         "# TYPE terrain_request_seconds histogram\n";
+  for (const auto& [route, h] : latency_) {
+    histogram_lines(out, "terrain_request_seconds", "route=\"" + route + "\"", h.counts, h.count,
+                    h.sum);
+  }
+  out << "# HELP terrain_generation_seconds Time to generate and encode one product.\n"
+         "# TYPE terrain_generation_seconds histogram\n";
+  for (const auto& [key, h] : generation_) {
+    histogram_lines(out, "terrain_generation_seconds",
+                    "product=\"" + key.first + "\",backend=\"" + key.second + "\"", h.counts,
+                    h.count, h.sum);
+  }
+  out << "# HELP terrain_generation_queue Requests waiting for or on the generation pool.\n"
+         "# TYPE terrain_generation_queue gauge\nterrain_generation_queue "
+      << queued.load() << "\n";
+  out << "# HELP terrain_generation_rejected_total Requests refused with 503 (queue full).\n"
+         "# TYPE terrain_generation_rejected_total counter\nterrain_generation_rejected_total "
+      << rejected.load() << "\n";
+  out << "# TYPE terrain_cache_hits_total counter\nterrain_cache_hits_total " << cache.hits()
+      << "\n# TYPE terrain_cache_misses_total counter\nterrain_cache_misses_total "
+      << cache.misses() << "\n# TYPE terrain_cache_evictions_total counter\n"
+      << "terrain_cache_evictions_total " << cache.evictions()
+      << "\n# TYPE terrain_cache_bytes gauge\nterrain_cache_bytes " << cache.bytes()
+      << "\n# TYPE terrain_cache_entries gauge\nterrain_cache_entries " << cache.entries() << "\n";
+  return out.str();
+}
+
+}  // namespace server
