@@ -16,6 +16,9 @@
 #include "terrain/tile_products.hpp"
 
 namespace server {
+
+std::string_view openapi_document();  // generated from server/resources/openapi.json
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -340,6 +343,13 @@ Outcome App::route(const Request& request, const Target& target) {
     if (!read) return not_allowed("GET, HEAD");
     Response r = json_response(request, http::status::ok, {{"status", "ok"}});
     r.set(http::field::cache_control, "no-store");
+    return r;
+  }
+  if (s.size() == 3 && s[0] == "api" && s[1] == "v1" && s[2] == "openapi.json") {
+    if (!read) return not_allowed("GET, HEAD");
+    Response r = make_response(request, http::status::ok, std::string(openapi_document()),
+                               "application/json");
+    r.set(http::field::cache_control, "public, max-age=300");
     return r;
   }
   if (s.size() == 1 && s[0] == "metrics") {
