@@ -13,6 +13,7 @@
 #include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/program.hpp"
+#include "terrain/sphere_trace.hpp"
 #include "terrain/tile_products.hpp"
 
 namespace server {
@@ -767,6 +768,8 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     return finish_json(body);
   }
 
+  if (rest.size() == 1 && rest[0] == "render.png") return render(request, loaded, target);
+
   // Tiles and meshes: /tiles/{z}/{x}/{y}.{png,tif}, /mesh/{z}/{x}/{y}.{terrain,glb,drc}
   if (rest.size() != 4 || (rest[0] != "tiles" && rest[0] != "mesh")) {
     return problem(request, http::status::not_found, "Not found",
@@ -958,6 +961,92 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     cached->etag = product_etag(cached->body);
     cache_.insert(cache_key, cached);
     return respond(*cached);
+  };
+  return deferred;
+}
+
+Outcome App::render(const Request& request, const LoadedVersion& loaded, const Target& target) {
+  auto bad = [&](const char* pointer, const std::string& detail) -> Outcome {
+    return problem(request, http::status::bad_request, "Bad picture request", detail, pointer);
+  };
+  int width = 640, height = 400;
+  if (const std::string w = target.get("width"); !w.empty()) {
+    const auto v = parse_integer<int>(w);
+    if (!v || *v < 16 || *v > 1920) return bad("/width", "width must be 16 to 1920 pixels");
+    width = *v;
+  }
+  if (const std::string h = target.get("height"); !h.empty()) {
+    const auto v = parse_integer<int>(h);
+    if (!v || *v < 16 || *v > 1080) return bad("/height", "height must be 16 to 1080 pixels");
+    height = *v;
+  }
+  const terrain::Program& program = *loaded.source->terrain;
+  const terrain::Box2 area = loaded.scene->area();
+  terrain::Camera camera = terrain::default_camera(program, area, width, height);
+  auto vector3 = [&](const char* key, terrain::Vec3& out) -> bool {
+    const std::string text = target.get(key);
+    if (text.empty()) return true;
+    double v[3];
+    std::size_t start = 0;
+    for (int i = 0; i < 3; ++i) {
+      const std::size_t comma = text.find(',', start);
+      if ((i < 2) == (comma == std::string::npos)) return false;
+      const auto d = parse_double(std::string_view(text).substr(start, comma - start));
+      if (!d || std::abs(*d) > 1e7) return false;
+      v[i] = *d;
+      start = comma + 1;
+    }
+    out = {static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])};
+    return true;
+  };
+  if (!vector3("eye", camera.position)) return bad("/eye", "eye must be x,y,z in scene metres");
+  if (!vector3("target", camera.target)) {
+    return bad("/target", "target must be x,y,z in scene metres");
+  }
+  if (const std::string f = target.get("fov"); !f.empty()) {
+    const auto v = parse_double(f);
+    if (!v || *v < 5 || *v > 120) return bad("/fov", "fov must be 5 to 120 degrees");
+    camera.vertical_fov_degrees = static_cast<float>(*v);
+  }
+  terrain::RenderOptions options;
+  options.threads = 1;  // the generation pool provides the parallelism
+  if (const std::string w = target.get("water"); !w.empty()) {
+    const auto v = parse_double(w);
+    if (!v || std::abs(*v) > 1e5) return bad("/water", "water must be an elevation in metres");
+    options.water_level = static_cast<float>(*v);
+  }
+  const double cost = static_cast<double>(width) * height *
+                      static_cast<double>(std::max<std::size_t>(program.code.size(), 1));
+  if (cost > config_.max_cost) {
+    return problem(request, http::status::unprocessable_entity, "Too costly",
+                   "this picture would cost " + std::to_string(static_cast<long long>(cost)) +
+                       " (pixels x program size), above the limit");
+  }
+  const bool pinned = request.target().find('@') != boost::beast::string_view::npos;
+  const unsigned version = request.version();
+  const bool keep_alive = request.keep_alive();
+  auto source = loaded.source;
+  Deferred deferred;
+  deferred.cost = cost;
+  deferred.work = [=, this]() -> Response {
+    const auto start = std::chrono::steady_clock::now();
+    const terrain::Picture picture = terrain::render(*source->terrain, area, camera, options);
+    auto png = terrain::encode_png_rgb8(picture.width, picture.height, picture.rgb.data());
+    metrics_.generation(
+        "render", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+        "cpu");
+    Request shadow{http::verb::get, "/", version};
+    shadow.keep_alive(keep_alive);
+    if (!png) {
+      return problem(shadow, http::status::internal_server_error, "Encoding failed",
+                     png.error().message);
+    }
+    Response r =
+        make_response(shadow, http::status::ok, std::string(png->begin(), png->end()), "image/png");
+    r.set(http::field::cache_control,
+          pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate");
+    r.set(http::field::etag, product_etag(r.body()));
+    return r;
   };
   return deferred;
 }

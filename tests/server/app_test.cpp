@@ -71,6 +71,7 @@ TEST_F(AppTest, EveryDocumentedPathIsRouted) {
     fill("y", "0");
     if (target.find(".terrain") != std::string::npos) target += "?scheme=geographic";
     if (target.ends_with("/sample")) target += "?x=1&y=2";
+    if (target.ends_with("/render.png")) target += "?width=64&height=48";
     const Response r = get(target);
     EXPECT_EQ(r.result(), http::status::ok) << target << ": " << r.body();
     ++checked;

@@ -54,6 +54,7 @@ class App {
   Response upload_image(const Request& request);
   Outcome scene_product(const Request& request, const std::string& ref,
                         const std::vector<std::string>& rest, const Target& target);
+  Outcome render(const Request& request, const LoadedVersion& loaded, const Target& target);
   Response authorize(const Request& request) const;  // result() == ok when allowed
 
   terrain::Result<LoadedVersion, Response> resolve(const Request& request, const std::string& ref);
