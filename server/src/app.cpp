@@ -230,7 +230,10 @@ struct App::Target {
 };
 
 App::App(Config config, std::unique_ptr<Store> store)
-    : config_(std::move(config)), store_(std::move(store)), cache_(config_.cache_bytes) {}
+    : config_(std::move(config)),
+      store_(std::move(store)),
+      cache_(config_.cache_bytes),
+      client_(StaticFiles::load(config_.client_dir)) {}
 
 std::string App::route_label(const Request& request) {
   const std::string_view t(request.target().data(), request.target().size());
@@ -383,6 +386,28 @@ Outcome App::route(const Request& request, const Target& target) {
       }
       if (!read) return not_allowed("GET, HEAD");
       return scene_product(request, ref, std::vector<std::string>(s.begin() + 4, s.end()), target);
+    }
+  }
+  if (read && (s.empty() || s[0] != "api")) {
+    // The browser client: looked up in the table read at start, never a path on disk.
+    std::string path;
+    for (const std::string& seg : s) path += "/" + seg;
+    if (path.empty()) path = "/";
+    if (const StaticFile* file = client_.find(path)) {
+      if (etag_matches(request, file->etag)) {
+        Response r = make_response(request, http::status::not_modified, "", file->media_type);
+        r.set(http::field::etag, file->etag);
+        return r;
+      }
+      Response r = make_response(request, http::status::ok, file->body, file->media_type);
+      r.set(http::field::etag, file->etag);
+      r.set(http::field::cache_control, "public, max-age=60");
+      return r;
+    }
+    if (path == "/" && client_.empty()) {
+      return problem(request, http::status::not_found, "No browser client",
+                     "the browser client is not installed (client.dir = " + config_.client_dir +
+                         "); the API is under /api/v1/ (see /api/v1/openapi.json)");
     }
   }
   return problem(request, http::status::not_found, "Not found",

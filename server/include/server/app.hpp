@@ -12,6 +12,7 @@
 #include "server/config.hpp"
 #include "server/http.hpp"
 #include "server/metrics.hpp"
+#include "server/static_files.hpp"
 #include "server/store.hpp"
 #include "terrain/tile_source.hpp"
 
@@ -67,6 +68,7 @@ class App {
   std::unique_ptr<Store> store_;
   Metrics metrics_;
   ProductCache cache_;
+  StaticFiles client_;
   std::mutex versions_mutex_;
   std::unordered_map<std::string, LoadedVersion> loaded_;  // by version hash (bounded)
 };
