@@ -233,7 +233,11 @@ App::App(Config config, std::unique_ptr<Store> store)
     : config_(std::move(config)),
       store_(std::move(store)),
       cache_(config_.cache_bytes),
-      client_(StaticFiles::load(config_.client_dir)) {}
+      client_(StaticFiles::load(config_.client_dir)) {
+  if (!config_.disk_cache_dir.empty()) {
+    disk_cache_ = std::make_unique<DiskCache>(config_.disk_cache_dir, config_.disk_cache_bytes);
+  }
+}
 
 std::string App::route_label(const Request& request) {
   const std::string_view t(request.target().data(), request.target().size());
@@ -955,6 +959,12 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   };
 
   if (auto hit = cache_.find(cache_key)) return respond(*hit);
+  if (disk_cache_) {
+    if (auto hit = disk_cache_->find(cache_key)) {
+      cache_.insert(cache_key, hit);
+      return respond(*hit);
+    }
+  }
 
   auto source = loaded.source;
   const std::string version_hash = loaded.version.hash;
@@ -985,6 +995,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     cached->content_encoding = product->content_encoding;
     cached->etag = product_etag(cached->body);
     cache_.insert(cache_key, cached);
+    if (disk_cache_) disk_cache_->insert(cache_key, *cached);
     return respond(*cached);
   };
   return deferred;

@@ -10,6 +10,7 @@
 
 #include "server/cache.hpp"
 #include "server/config.hpp"
+#include "server/disk_cache.hpp"
 #include "server/http.hpp"
 #include "server/metrics.hpp"
 #include "server/static_files.hpp"
@@ -68,6 +69,7 @@ class App {
   std::unique_ptr<Store> store_;
   Metrics metrics_;
   ProductCache cache_;
+  std::unique_ptr<DiskCache> disk_cache_;  ///< null unless cache.disk_dir is set
   StaticFiles client_;
   std::mutex versions_mutex_;
   std::unordered_map<std::string, LoadedVersion> loaded_;  // by version hash (bounded)
