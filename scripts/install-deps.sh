@@ -9,7 +9,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libdraco-dev libgeographiclib-dev zlib1g-dev libtiff-dev
   libboost1.81-dev libtomlplusplus-dev libsqlite3-dev
-  gdal-bin nodejs
+  gdal-bin nodejs clang libclang-rt-14-dev
 )
 
 missing=()

@@ -924,7 +924,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   const auto gray16 = terrain::gray16_encoding_for(loaded.source->elevation_range);
 
   // The response for a product, fresh or cached.
-  auto respond = [=, this](const CachedProduct& p) {
+  auto respond = [=](const CachedProduct& p) {
     Request shadow{http::verb::get, "/", version};
     if (!if_none_match.empty()) shadow.set(http::field::if_none_match, if_none_match);
     shadow.keep_alive(keep_alive);

@@ -1,0 +1,18 @@
+// libFuzzer target: scene JSON validation must refuse any input with an Error (never crash,
+// never hang, never throw) and accept only scenes that compile.
+#include <cstddef>
+#include <cstdint>
+#include <string_view>
+
+#include "terrain/program.hpp"
+#include "terrain/scene.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::string_view text(reinterpret_cast<const char*>(data), size);
+  terrain::Result<terrain::Scene> scene = terrain::parse_scene_text(text);
+  if (scene) {
+    terrain::Result<terrain::Program> program = terrain::compile(*scene);
+    (void)program;
+  }
+  return 0;
+}
