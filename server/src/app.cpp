@@ -269,7 +269,15 @@ void App::add_cors(const Request& request, Response& response) const {
   response.set(http::field::access_control_allow_origin, any ? "*" : value);
   response.set(http::field::access_control_expose_headers,
                "ETag, Content-Encoding, Content-Length, X-Gray16-Offset, X-Gray16-Scale");
-  if (!any) response.set(http::field::vary, "Origin");
+  if (!any) {
+    // Add Origin to what the response already varies by (Accept-Encoding, say), never replace.
+    const auto vary = response.find(http::field::vary);
+    if (vary == response.end()) {
+      response.set(http::field::vary, "Origin");
+    } else if (vary->value().find("Origin") == boost::beast::string_view::npos) {
+      response.set(http::field::vary, std::string(vary->value()) + ", Origin");
+    }
+  }
 }
 
 Outcome App::handle(const Request& request) {
@@ -711,9 +719,18 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
       pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate";
   const terrain::Program& program = *loaded.source->terrain;
 
+  // JSON products are products too: a strong ETag of the bytes sent (so the gzipped and the
+  // plain representation differ) and 304 when the client has them.
   auto finish_json = [&](const json& body, std::string_view media = "application/json") {
     Response r = json_response(request, http::status::ok, body, media);
     r.set(http::field::cache_control, cache_control);
+    const std::string etag = product_etag(r.body());
+    r.set(http::field::etag, etag);
+    if (etag_matches(request, etag)) {
+      r.result(http::status::not_modified);
+      r.body().clear();
+      r.erase(http::field::content_length);
+    }
     return r;
   };
 
@@ -920,7 +937,6 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   }();
   const unsigned version = request.version();
   const bool keep_alive = request.keep_alive();
-  const bool head_only = request.method() == http::verb::head;
   const auto gray16 = terrain::gray16_encoding_for(loaded.source->elevation_range);
 
   // The response for a product, fresh or cached.
@@ -928,22 +944,25 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     Request shadow{http::verb::get, "/", version};
     if (!if_none_match.empty()) shadow.set(http::field::if_none_match, if_none_match);
     shadow.keep_alive(keep_alive);
+    // A gzip-stored product sent plain is another representation: another strong ETag.
+    const bool inflate = p.content_encoding == "gzip" && !gzip_ok;
+    const std::string etag = inflate ? p.etag.substr(0, p.etag.size() - 1) + "-identity\"" : p.etag;
     Response r{http::status::ok, version};
     r.set(http::field::server, "terrain-server");
     r.keep_alive(keep_alive);
-    r.set(http::field::etag, p.etag);
+    r.set(http::field::etag, etag);
     r.set(http::field::cache_control, cache_control);
     r.set(http::field::vary, "Accept-Encoding, Origin");
     if (*format == terrain::TileFormat::gray16) {
       r.set("X-Gray16-Offset", std::to_string(gray16.offset));
       r.set("X-Gray16-Scale", std::to_string(gray16.scale));
     }
-    if (etag_matches(shadow, p.etag)) {
+    if (etag_matches(shadow, etag)) {
       r.result(http::status::not_modified);
       return r;
     }
     r.set(http::field::content_type, p.media_type);
-    if (p.content_encoding == "gzip" && !gzip_ok) {
+    if (inflate) {
       auto raw = terrain::gzip_decompress(
           std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(p.body.data()),
                                         p.body.size()),
@@ -953,8 +972,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
       if (!p.content_encoding.empty()) r.set(http::field::content_encoding, p.content_encoding);
       r.body() = p.body;
     }
-    r.prepare_payload();
-    if (head_only) r.body().clear();
+    r.prepare_payload();  // HEAD: the session drops the body and keeps this length
     return r;
   };
 

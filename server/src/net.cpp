@@ -43,12 +43,16 @@ struct HttpServer::State {
   awaitable<void> accept_loop() {
     while (!stopping) {
       boost::system::error_code ec;
-      tcp::socket socket = co_await acceptor.async_accept(asio::redirect_error(use_awaitable, ec));
+      // Each connection lives on a strand of its own: its session, its read deadlines and a
+      // shutdown's close never run concurrently, whichever I/O thread picks them up.
+      tcp::socket socket = co_await acceptor.async_accept(asio::make_strand(io),
+                                                          asio::redirect_error(use_awaitable, ec));
       if (ec) {
         if (stopping || ec == asio::error::operation_aborted) break;
         continue;  // e.g. too many open files: keep serving the others
       }
-      asio::co_spawn(io, session(std::move(socket)), asio::detached);
+      const auto executor = socket.get_executor();
+      asio::co_spawn(executor, session(std::move(socket)), asio::detached);
     }
   }
 
@@ -57,6 +61,42 @@ struct HttpServer::State {
     boost::system::error_code ec;
     co_await http::async_write(stream, response, asio::redirect_error(use_awaitable, ec));
   }
+
+  // A deadline for reading a request. tcp_stream's own timeout closes the socket, which would
+  // leave no way to answer 408; this one shuts the receiving side instead (the pending read ends,
+  // and so does any read started after it), so the answer can still be sent. Its handler runs on
+  // the connection's strand, like the session, and does nothing once the deadline is gone.
+  class ReadDeadline {
+   public:
+    ReadDeadline(const std::shared_ptr<beast::tcp_stream>& stream, int ms)
+        : timer_(stream->get_executor()), state_(std::make_shared<State>()) {
+      timer_.expires_after(std::chrono::milliseconds(ms));
+      timer_.async_wait([state = state_, weak = std::weak_ptr<beast::tcp_stream>(stream)](
+                            const boost::system::error_code& ec) {
+        if (ec || !state->active) return;
+        state->expired = true;
+        if (auto s = weak.lock()) {
+          boost::system::error_code ignored;
+          s->socket().shutdown(tcp::socket::shutdown_receive, ignored);
+        }
+      });
+    }
+    ~ReadDeadline() {
+      state_->active = false;
+      timer_.cancel();
+    }
+    ReadDeadline(const ReadDeadline&) = delete;
+    ReadDeadline& operator=(const ReadDeadline&) = delete;
+    bool expired() const { return state_->expired; }
+
+   private:
+    struct State {
+      bool active = true;
+      bool expired = false;
+    };
+    asio::steady_timer timer_;
+    std::shared_ptr<State> state_;
+  };
 
   awaitable<void> session(tcp::socket socket) {
     auto stream = std::make_shared<beast::tcp_stream>(std::move(socket));
@@ -76,16 +116,24 @@ struct HttpServer::State {
     while (!stopping) {
       http::request_parser<http::empty_body> header_parser;
       header_parser.header_limit(static_cast<std::uint32_t>(config.header_limit));
-      stream->expires_after(
-          std::chrono::milliseconds(first ? config.header_timeout_ms : config.idle_timeout_ms));
+      // The route's body limit is checked below, once the target is known; the parser's default
+      // (1 MiB) would refuse larger declared bodies as malformed before that.
+      header_parser.body_limit(boost::none);
+      stream->expires_never();
       boost::system::error_code ec;
-      co_await http::async_read_header(*stream, buffer, header_parser,
-                                       asio::redirect_error(use_awaitable, ec));
+      bool header_timed_out = false;
+      {
+        const ReadDeadline deadline(stream,
+                                    first ? config.header_timeout_ms : config.idle_timeout_ms);
+        co_await http::async_read_header(*stream, buffer, header_parser,
+                                         asio::redirect_error(use_awaitable, ec));
+        header_timed_out = deadline.expired();
+      }
       const auto started = std::chrono::steady_clock::now();
       if (ec) {
         Request bare{http::verb::get, "/", 11};
         bare.keep_alive(false);
-        if (ec == beast::error::timeout && buffer.size() > 0) {
+        if (header_timed_out && !stopping && buffer.size() > 0) {
           co_await write(*stream, problem(bare, http::status::request_timeout, "Request timeout",
                                           "the request header did not arrive in time"));
         } else if (ec == http::error::header_limit) {
@@ -93,7 +141,7 @@ struct HttpServer::State {
                                           "Header too large",
                                           "request headers are limited to " +
                                               std::to_string(config.header_limit) + " bytes"));
-        } else if (ec != http::error::end_of_stream && ec != beast::error::timeout &&
+        } else if (!header_timed_out && ec != http::error::end_of_stream &&
                    ec != asio::error::operation_aborted && ec != asio::error::eof &&
                    ec != asio::error::connection_reset && ec != asio::error::bad_descriptor) {
           co_await write(
@@ -123,8 +171,12 @@ struct HttpServer::State {
       }
       http::request_parser<http::string_body> parser(std::move(header_parser));
       parser.body_limit(static_cast<std::uint64_t>(limit));
-      stream->expires_after(std::chrono::milliseconds(config.body_timeout_ms));
-      co_await http::async_read(*stream, buffer, parser, asio::redirect_error(use_awaitable, ec));
+      bool body_timed_out = false;
+      {
+        const ReadDeadline deadline(stream, config.body_timeout_ms);
+        co_await http::async_read(*stream, buffer, parser, asio::redirect_error(use_awaitable, ec));
+        body_timed_out = deadline.expired();
+      }
       if (ec) {
         Request bare{http::verb::get, "/", 11};
         bare.keep_alive(false);
@@ -132,9 +184,14 @@ struct HttpServer::State {
           co_await write(*stream,
                          problem(bare, http::status::payload_too_large, "Body too large",
                                  "this route accepts at most " + std::to_string(limit) + " bytes"));
-        } else if (ec == beast::error::timeout) {
+        } else if (body_timed_out) {
           co_await write(*stream, problem(bare, http::status::request_timeout, "Request timeout",
                                           "the request body did not arrive in time"));
+        } else if (ec.category() == http::make_error_code(http::error::bad_target).category() &&
+                   ec != http::error::partial_message && ec != http::error::end_of_stream) {
+          // A malformed body (bad chunk framing, say); a client that went away gets nothing.
+          co_await write(
+              *stream, problem(bare, http::status::bad_request, "Malformed request", ec.message()));
         }
         break;
       }
@@ -149,11 +206,29 @@ struct HttpServer::State {
                              "the generation queue is full; retry shortly");
           response.set(http::field::retry_after, "1");
         } else {
-          // Hop to the generation pool, work, hop back to this connection's executor.
-          co_await asio::post(generation, use_awaitable);
-          response = work->work();
+          // Work on the generation pool; this coroutine resumes on the connection's strand.
+          // (Posting the coroutine itself to the pool would resume it on its own executor,
+          // the I/O threads, and generate there.)
+          std::exception_ptr failure;
+          try {
+            response = co_await asio::co_spawn(
+                generation, [work]() -> awaitable<Response> { co_return work->work(); },
+                use_awaitable);
+          } catch (...) {
+            failure = std::current_exception();
+          }
           app.metrics().queued.fetch_sub(1);
-          co_await asio::post(stream->get_executor(), use_awaitable);
+          if (failure) {
+            std::string what = "generation failed";
+            try {
+              std::rethrow_exception(failure);
+            } catch (const std::exception& e) {
+              what = e.what();
+            } catch (...) {
+            }
+            response =
+                problem(request, http::status::internal_server_error, "Internal error", what);
+          }
         }
         app.add_cors(request, response);
       } else {
@@ -228,7 +303,13 @@ void HttpServer::stop() {
     s->acceptor.close(ignored);
     std::lock_guard lock(s->sessions_mutex);
     for (auto& weak : s->idle) {
-      if (auto stream = weak.lock()) stream->socket().close(ignored);
+      if (auto stream = weak.lock()) {
+        // On the connection's strand: the session may be running on another thread.
+        asio::post(stream->get_executor(), [stream] {
+          boost::system::error_code ignored_too;
+          stream->socket().close(ignored_too);
+        });
+      }
     }
   });
 }
