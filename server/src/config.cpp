@@ -335,6 +335,10 @@ Result<Startup> load_config(std::span<const std::string_view> args,
       return s.error();
     }
   }
+  const std::string& level = startup.config.log_level;
+  if (level != "error" && level != "warn" && level != "info" && level != "debug") {
+    return Error{"log level '" + level + "' is not error, warn, info or debug", "/log.level"};
+  }
   return startup;
 }
 

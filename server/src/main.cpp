@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "server/app.hpp"
+#include "server/log.hpp"
 #include "server/net.hpp"
 
 int main(int argc, char** argv) {
@@ -20,6 +21,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   const server::Config& config = startup->config;
+  server::set_log_level(config.log_level);
   auto store = server::open_sqlite_store(config.data_dir);
   if (!store) {
     std::cerr << "terrain-server: store: " << store.error().message << "\n";
@@ -42,7 +44,7 @@ int main(int argc, char** argv) {
   boost::asio::signal_set signals(signals_io, SIGINT, SIGTERM);
   signals.async_wait([&](const boost::system::error_code& ec, int signal) {
     if (ec) return;
-    std::cerr << "terrain-server: signal " << signal << ", draining\n";
+    server::log(server::LogLevel::info, "shutdown", {{"signal", signal}});
     http.stop();
   });
   std::thread signal_thread([&] { signals_io.run(); });

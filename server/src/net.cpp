@@ -1,5 +1,9 @@
 #include "server/net.hpp"
 
+#include <cmath>
+
+#include "server/log.hpp"
+
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
@@ -243,9 +247,18 @@ struct HttpServer::State {
       response.keep_alive(keep_alive);
       const int status = static_cast<int>(response.result_int());
       co_await write(*stream, std::move(response));
-      app.metrics().request(
-          App::route_label(request), status,
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+      const double seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      const std::string route = App::route_label(request);
+      app.metrics().request(route, status, seconds);
+      if (log_enabled(LogLevel::info)) {
+        log(LogLevel::info, "request",
+            {{"method", std::string(request.method_string())},
+             {"target", std::string(request.target())},
+             {"route", route},
+             {"status", status},
+             {"ms", std::round(seconds * 1e5) / 100.0}});
+      }
       if (!keep_alive) break;
       {
         std::lock_guard lock(sessions_mutex);

@@ -112,6 +112,7 @@ TEST(ConfigErrors, NameTheOptionAndTheSource) {
       {{}, {}, "port = 1\n", "/port"},
       {{}, {}, "[server\nport = 1\n", ""},
       {{"--config", "/nonexistent/x.toml"}, {}, "", "/config"},
+      {{"--log-level", "chatty"}, {}, "", "/log.level"},
   };
   for (const Case& c : cases) {
     std::vector<std::string_view> args = c.args;
