@@ -1,0 +1,82 @@
+#!/usr/bin/env bash
+# HTTP benchmarks on loopback (release build): cached tile requests/s against nginx serving the
+# same bytes as a static file, side by side with the same wrk settings; then uncached tile latency
+# (p50/p99) over distinct addresses. Installs wrk and nginx from Debian when missing.
+# Usage: bench/http_bench.sh [SECONDS]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds="${1:-10}"
+for p in wrk nginx-light curl; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ -n "${missing[*]:-}" ]; then
+  sudo_cmd=""; [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
+  $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" > /dev/null
+fi
+scripts/build.sh release > /dev/null
+
+work="$(mktemp -d)"
+cleanup() {
+  [ -n "${server_pid:-}" ] && kill "$server_pid" 2> /dev/null || true
+  [ -f "$work/nginx.pid" ] && kill "$(cat "$work/nginx.pid")" 2> /dev/null || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+build/release/server/terrain-server --config /dev/null --port 0 --data-dir "$work/data" \
+  --log-level warn > "$work/server.out" 2> "$work/server.err" &
+server_pid=$!
+for _ in $(seq 100); do grep -q listening "$work/server.out" 2> /dev/null && break; sleep 0.1; done
+port="$(sed -n 's/.*:\([0-9]*\) .*/\1/p' "$work/server.out" | head -1)"
+base="http://127.0.0.1:$port/api/v1/scenes/winding-road@1"
+tile="$base/tiles/13/4261/2988.png"
+curl -sf -o "$work/tile.png" "$tile"
+
+mkdir -p "$work/www"
+cp "$work/tile.png" "$work/www/tile.png"
+cat > "$work/nginx.conf" <<NGINX
+worker_processes 2;
+pid $work/nginx.pid;
+error_log $work/nginx-error.log;
+events { worker_connections 1024; }
+http {
+  access_log off;
+  sendfile on;
+  server {
+    listen 127.0.0.1:18099;
+    root $work/www;
+  }
+}
+NGINX
+nginx -c "$work/nginx.conf"
+sleep 0.5
+
+echo "## Cached tile ($(stat -c %s "$work/tile.png") bytes), wrk -t2 -c32 -d${seconds}s"
+echo
+echo "| Server | Requests/s | p50 | p99 |"
+echo "|---|---|---|---|"
+for target in "terrain-server|$tile" "nginx (static file)|http://127.0.0.1:18099/tile.png"; do
+  name="${target%%|*}"
+  url="${target#*|}"
+  wrk -t2 -c32 -d"${seconds}s" --latency "$url" > "$work/wrk.txt"
+  rps="$(awk '/Requests\/sec/ {print $2}' "$work/wrk.txt")"
+  p50="$(awk '$1 == "50%" {print $2}' "$work/wrk.txt")"
+  p99="$(awk '$1 == "99%" {print $2}' "$work/wrk.txt")"
+  echo "| $name | $rps | $p50 | $p99 |"
+done
+
+echo
+echo "## Uncached 256² terrain-RGB tiles, one at a time (200 distinct addresses per scene)"
+echo
+echo "| Scene | p50 | p99 |"
+echo "|---|---|---|"
+for scene in winding-road mountain-range hills-river; do
+  : > "$work/times"
+  for i in $(seq 0 199); do
+    x=$((i % 20)); y=$((i / 20))
+    curl -s -o /dev/null -w '%{time_total}\n' \
+      "http://127.0.0.1:$port/api/v1/scenes/$scene@1/tiles/5/$x/$y.png?scheme=local" >> "$work/times"
+  done
+  sort -n "$work/times" | awk -v s="$scene" '{a[NR]=$1} END {
+    printf "| %s | %.1f ms | %.1f ms |\n", s, a[int(NR*0.5)]*1000, a[int(NR*0.99)]*1000 }'
+done
