@@ -10,6 +10,7 @@ packages=(
   libdraco-dev libgeographiclib-dev zlib1g-dev libtiff-dev
   libboost1.81-dev libtomlplusplus-dev libsqlite3-dev
   gdal-bin nodejs clang libclang-rt-14-dev
+  libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
 )
 
 missing=()

@@ -1,0 +1,14 @@
+// The GLSL files of gpu/glsl/, embedded at build time (glsl_sources.cpp.in).
+#pragma once
+
+#include <string_view>
+
+namespace gpu::glsl {
+
+std::string_view noise();
+std::string_view nodes();
+std::string_view interpreter();
+std::string_view compute_prelude();
+std::string_view compute_main();
+
+}  // namespace gpu::glsl
