@@ -508,6 +508,26 @@ terrain::Result<LoadedVersion, Response> App::resolve(const Request& request,
     return problem(request, http::status::bad_request, "Bad scene id",
                    "scene ids are 1 to 64 characters of a-z, 0-9, '-' and '_'", "/id");
   }
+  // Pinned refs name immutable versions: once resolved, never asked of the store again. Head
+  // refs are remembered for a second (their responses say max-age=5 anyway) and forgotten at
+  // once when this server writes a new version.
+  const bool pinned = at != std::string::npos;
+  const auto now = std::chrono::steady_clock::now();
+  {
+    std::lock_guard lock(versions_mutex_);
+    if (auto it = resolved_.find(ref); it != resolved_.end()) {
+      if (pinned || now - it->second.second < std::chrono::seconds(1)) return it->second.first;
+      resolved_.erase(it);
+    }
+  }
+  auto remember = [&](terrain::Result<LoadedVersion, Response> loaded) {
+    if (loaded) {
+      std::lock_guard lock(versions_mutex_);
+      if (resolved_.size() >= 4096) resolved_.clear();
+      resolved_[ref] = {*loaded, now};
+    }
+    return loaded;
+  };
   StoreResult<SceneVersion> version = StoreError{};
   if (at == std::string::npos) {
     version = store_->head(id);
@@ -523,7 +543,12 @@ terrain::Result<LoadedVersion, Response> App::resolve(const Request& request,
     }
   }
   if (!version) return store_problem(request, version.error());
-  return load_version(request, *version);
+  return remember(load_version(request, *version));
+}
+
+void App::forget_head(const std::string& id) {
+  std::lock_guard lock(versions_mutex_);
+  resolved_.erase(id);
 }
 
 Response App::list_scenes(const Request& request) {
@@ -627,6 +652,7 @@ Response App::put_scene(const Request& request, const std::string& id) {
     }
     return store_problem(request, stored.error());
   }
+  forget_head(id);
   Response r =
       json_response(request, http::status::ok,
                     {{"id", stored->scene_id},

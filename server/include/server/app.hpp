@@ -3,6 +3,7 @@
 // for the bounded generation pool. Thread-safe: sessions on any thread call handle().
 #pragma once
 
+#include <chrono>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -73,6 +74,10 @@ class App {
   StaticFiles client_;
   std::mutex versions_mutex_;
   std::unordered_map<std::string, LoadedVersion> loaded_;  // by version hash (bounded)
+  // Scene refs ("id", "id@3") already resolved, with when (head refs expire).
+  std::unordered_map<std::string, std::pair<LoadedVersion, std::chrono::steady_clock::time_point>>
+      resolved_;
+  void forget_head(const std::string& id);
 };
 
 }  // namespace server
