@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "gpu/backend.hpp"
 #include "terrain/evaluate.hpp"
 #include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
@@ -38,11 +39,13 @@ Usage:
                                          sphere-traced picture with simple shading
   terrain tile SCENE.json Z X Y -o OUT.{png,tif,terrain,glb,drc} [--scheme S] [--encoding E]
        [--size N] [--border] [--grid N] [--max-error M] [--regular] [--gunzip]
+       [--backend auto|gpu|cpu]
                                          one tile: S = local (default), webmercator or
                                          geographic; E (PNG) = terrain-rgb (default), terrarium,
                                          gray16, normals, hillshade; .terrain (quantized-mesh,
                                          geographic only) is written gzipped as served unless
-                                         --gunzip; prints what it wrote as JSON
+                                         --gunzip; prints what it wrote as JSON, with the
+                                         evaluator (backend, default cpu; gpu = EGL compute)
   terrain layer-json SCENE.json          Cesium layer.json for the scene's geographic tiles
   terrain program SCENE.json             the compiled program as JSON
   terrain nodes                          every node type: summary and example (JSON)
@@ -376,6 +379,12 @@ int cmd_tile(const Args& args) {
   }
   auto maker = product_maker(args.positional[1]);
   if (!maker) return 1;
+  Result<gpu::BackendChoice> backend = gpu::choose_backend(args.get("--backend", "cpu"));
+  if (!backend) {
+    std::cerr << "terrain tile: --backend: " << backend.error().message << "\n";
+    return 2;
+  }
+  maker->set_backend(backend->backend);
   const auto start = std::chrono::steady_clock::now();
   Result<Product> product = maker->make(*scheme, {static_cast<int>(*z), *x, *y}, *format, options);
   const double ms =
@@ -405,6 +414,7 @@ int cmd_tile(const Args& args) {
   nlohmann::json report{{"file", out},
                         {"bytes", bytes.size()},
                         {"media_type", product->media_type},
+                        {"backend", product->backend},
                         {"milliseconds", std::round(ms * 100.0) / 100.0}};
   if (!encoding.empty()) report["content_encoding"] = encoding;
   if (*format == TileFormat::gray16) {

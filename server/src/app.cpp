@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "gpu/backend.hpp"
 #include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/program.hpp"
@@ -236,6 +237,14 @@ App::App(Config config, std::unique_ptr<Store> store)
       client_(StaticFiles::load(config_.client_dir)) {
   if (!config_.disk_cache_dir.empty()) {
     disk_cache_ = std::make_unique<DiskCache>(config_.disk_cache_dir, config_.disk_cache_bytes);
+  }
+  terrain::Result<gpu::BackendChoice> choice = gpu::choose_backend(backend_name(config_.backend));
+  if (choice) {
+    backend_ = choice->backend;
+    backend_reason_ = choice->reason;
+  } else {
+    // backend = gpu with no working device: serve from the CPU and say so, rather than fail.
+    backend_reason_ = "cpu: backend = gpu but " + choice.error().message;
   }
 }
 
@@ -998,6 +1007,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
       if (!p.content_encoding.empty()) r.set(http::field::content_encoding, p.content_encoding);
       r.body() = p.body;
     }
+    if (!p.backend.empty()) r.set("X-Terrain-Backend", p.backend);
     r.prepare_payload();  // HEAD: the session drops the body and keeps this length
     return r;
   };
@@ -1020,13 +1030,20 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     thread_local std::unordered_map<std::string, std::unique_ptr<terrain::ProductMaker>> makers;
     if (makers.size() > kMakersPerThread && !makers.contains(version_hash)) makers.clear();
     std::unique_ptr<terrain::ProductMaker>& maker = makers[version_hash];
-    if (!maker) maker = std::make_unique<terrain::ProductMaker>(*source);
+    if (!maker) {
+      maker = std::make_unique<terrain::ProductMaker>(*source);
+      maker->set_backend(backend_);
+    }
     const auto start = std::chrono::steady_clock::now();
     Result<terrain::Product> product = maker->make(s, address, f, options);
     metrics_.generation(
         terrain::format_info(f).encoding.empty() ? terrain::format_info(f).extension
                                                  : terrain::format_info(f).encoding,
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "cpu");
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+        !product                                    ? "cpu"
+        : product->backend.starts_with("gpu")       ? "gpu"
+        : product->backend.starts_with("cpu (fall") ? "cpu-fallback"
+                                                    : "cpu");
     if (!product) {
       Request shadow{http::verb::get, "/", version};
       shadow.keep_alive(keep_alive);
@@ -1038,6 +1055,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     cached->media_type = product->media_type;
     cached->content_encoding = product->content_encoding;
     cached->etag = product_etag(cached->body);
+    cached->backend = product->backend;
     cache_.insert(cache_key, cached);
     if (disk_cache_) disk_cache_->insert(cache_key, *cached);
     return respond(*cached);

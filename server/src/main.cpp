@@ -49,7 +49,9 @@ int main(int argc, char** argv) {
   });
   std::thread signal_thread([&] { signals_io.run(); });
   std::cout << "terrain-server listening on http://" << config.address << ":" << *port << " (data "
-            << config.data_dir << ", backend cpu)" << std::endl;
+            << config.data_dir << ")" << std::endl;
+  server::log(server::LogLevel::info, "backend",
+              {{"choice", server::backend_name(config.backend)}, {"using", app.backend_reason()}});
   http.run();
   signals_io.stop();
   signal_thread.join();

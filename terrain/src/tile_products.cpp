@@ -167,6 +167,7 @@ Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address
   const HeightTile& tile = *generated;
   Product product;
   product.media_type = std::string(format_info(format).media_type);
+  product.backend = generator_.last_backend();
   Result<std::vector<std::uint8_t>> bytes = std::vector<std::uint8_t>{};
   switch (format) {
     case TileFormat::terrain_rgb:

@@ -320,6 +320,41 @@ void TileGenerator::evaluate(Evaluator& evaluator, const HeightTile& tile,
   }
 }
 
+bool TileGenerator::evaluate_on_backend(const HeightTile& tile,
+                                        const std::vector<std::uint8_t>& mapped,
+                                        std::vector<float>& elevation, std::vector<float>& gx,
+                                        std::vector<float>& gy) {
+  last_backend_ = "cpu";
+  if (!backend_) return false;
+  // The same floats the CPU path evaluates (positions rounded once from double).
+  std::vector<float> x, y;
+  std::vector<std::size_t> at;
+  x.reserve(mapped.size());
+  y.reserve(mapped.size());
+  at.reserve(mapped.size());
+  for (std::size_t i = 0; i < mapped.size(); ++i) {
+    if (mapped[i] == 0) continue;
+    x.push_back(static_cast<float>(tile.scene_x[i]));
+    y.push_back(static_cast<float>(tile.scene_y[i]));
+    at.push_back(i);
+  }
+  std::vector<float> f(x.size()), fx(x.size()), fy(x.size());
+  const Status done = backend_->evaluate(*source_.terrain, x, y,
+                                         static_cast<float>(tile.ground_spacing), f.data(),
+                                         fx.data(), fy.data());
+  if (!done) {
+    last_backend_ = "cpu (fallback: " + done.error().message + ")";
+    return false;
+  }
+  for (std::size_t k = 0; k < at.size(); ++k) {
+    elevation[at[k]] = f[k];
+    gx[at[k]] = fx[k];
+    gy[at[k]] = fy[k];
+  }
+  last_backend_ = backend_->name();
+  return true;
+}
+
 Result<HeightTile> TileGenerator::height_tile(const TileRequest& request) {
   if (Status valid = validate_request(request); !valid) return valid.error();
   HeightTile tile;
@@ -353,8 +388,10 @@ Result<HeightTile> TileGenerator::height_tile(const TileRequest& request) {
   tile.elevation.assign(count, source_.base_elevation);
   tile.slope_east.assign(count, 0.0f);
   tile.slope_north.assign(count, 0.0f);
-  evaluate(terrain_, tile, mapped, static_cast<float>(tile.ground_spacing), tile.elevation,
-           &tile.slope_east, &tile.slope_north, nullptr);
+  if (!evaluate_on_backend(tile, mapped, tile.elevation, tile.slope_east, tile.slope_north)) {
+    evaluate(terrain_, tile, mapped, static_cast<float>(tile.ground_spacing), tile.elevation,
+             &tile.slope_east, &tile.slope_north, nullptr);
+  }
   if (tile.scheme != TileScheme::local) {
     for (std::size_t i = 0; i < count; ++i) {
       frame_.scene_to_east_north(tile.slope_east[i], tile.slope_north[i], tile.slope_east[i],

@@ -333,3 +333,35 @@ TEST_F(HttpLimits, KillNineLosesNoAcknowledgedVersion) {
 
 }  // namespace
 }  // namespace http_test
+
+namespace http_test {
+namespace {
+
+// generation.backend: gpu evaluates on any EGL device (llvmpipe here) and says so per tile;
+// programs the GPU cannot run (image nodes) fall back to the CPU without failing the request.
+TEST_F(HttpLimits, GpuBackendServesGpuTilesAndFallsBackForImages) {
+  start({"--backend", "gpu"});
+  const Response gpu_tile =
+      get(port_, "/api/v1/scenes/craters@1/tiles/1/1/0.png?scheme=local&size=64");
+  ASSERT_EQ(gpu_tile.result_int(), 200u);
+  EXPECT_EQ(header(gpu_tile, "X-Terrain-Backend").rfind("gpu: ", 0), 0u)
+      << header(gpu_tile, "X-Terrain-Backend");
+  const Response image = get(port_, "/api/v1/scenes/butte@1/tiles/1/1/0.png?scheme=local&size=64");
+  ASSERT_EQ(image.result_int(), 200u);
+  EXPECT_EQ(header(image, "X-Terrain-Backend").rfind("cpu (fallback: ", 0), 0u);
+  const Response metrics = get(port_, "/metrics");
+  EXPECT_NE(metrics.body().find("backend=\"gpu\""), std::string::npos);
+  EXPECT_NE(metrics.body().find("backend=\"cpu-fallback\""), std::string::npos);
+}
+
+TEST_F(HttpLimits, AutoBackendNeverPicksASoftwareRasteriser) {
+  start({"--backend", "auto"});
+  const Response r = get(port_, "/api/v1/scenes/craters@1/tiles/1/1/0.png?scheme=local&size=64");
+  ASSERT_EQ(r.result_int(), 200u);
+  const std::string backend = header(r, "X-Terrain-Backend");
+  EXPECT_TRUE(backend == "cpu" || backend.rfind("gpu: ", 0) == 0) << backend;
+  EXPECT_EQ(backend.find("llvmpipe"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace http_test

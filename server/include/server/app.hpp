@@ -39,6 +39,8 @@ class App {
   terrain::Status seed_examples();
 
   const Config& config() const { return config_; }
+  /// The evaluator chosen from generation.backend, and why (for the start-up log).
+  const std::string& backend_reason() const { return backend_reason_; }
   Metrics& metrics() { return metrics_; }
   ProductCache& cache() { return cache_; }
   /// The route label a request counts under in /metrics.
@@ -72,6 +74,8 @@ class App {
   ProductCache cache_;
   std::unique_ptr<DiskCache> disk_cache_;  ///< null unless cache.disk_dir is set
   StaticFiles client_;
+  std::shared_ptr<terrain::PointsBackend> backend_;  ///< null: the CPU
+  std::string backend_reason_;
   std::mutex versions_mutex_;
   std::unordered_map<std::string, LoadedVersion> loaded_;  // by version hash (bounded)
   // Scene refs ("id", "id@3") already resolved, with when (head refs expire).

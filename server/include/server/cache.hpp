@@ -18,6 +18,7 @@ struct CachedProduct {
   std::string media_type;
   std::string content_encoding;  ///< "" or "gzip"
   std::string etag;              ///< strong, quoted
+  std::string backend;           ///< what evaluated it: "cpu", "gpu: <device>", ...
 };
 
 class ProductCache {

@@ -64,6 +64,7 @@ struct Product {
   std::vector<std::uint8_t> bytes;
   std::string media_type;
   std::string content_encoding;  ///< "gzip" for quantized-mesh, else ""
+  std::string backend;           ///< what evaluated the heights (TileGenerator::last_backend)
 };
 
 /// Constants of a scene's products: every tile of a scene is encoded with these.
@@ -80,6 +81,10 @@ class ProductMaker {
   explicit ProductMaker(TileSource source);
 
   const ProductConstants& constants() const { return constants_; }
+  /// See TileGenerator::set_backend.
+  void set_backend(std::shared_ptr<PointsBackend> backend) {
+    generator_.set_backend(std::move(backend));
+  }
   const TileSource& source() const { return generator_.source(); }
 
   /// Validates everything (address, format against scheme, options) before any work.

@@ -4,6 +4,9 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "terrain/evaluate.hpp"
@@ -96,10 +99,30 @@ struct TileRange {
 /// the scheme's own numbering; empty when the area lies outside the scheme's world.
 TileRange tiles_covering_area(const TileSource& source, TileScheme scheme, int z);
 
+/// Another evaluator of compiled programs (the GPU backend in gpu/ implements it): terrain only
+/// knows this interface. The CPU interpreter stays the reference and the fallback.
+class PointsBackend {
+ public:
+  virtual ~PointsBackend() = default;
+  /// Names the backend in tiles' provenance and metrics ("gpu: NVIDIA H200 …").
+  virtual std::string name() const = 0;
+  /// f and ∇f of `program` at (x[i], y[i]) at level of detail `spacing`. An error (unsupported
+  /// node type, lost context, ...) makes the caller evaluate on the CPU instead.
+  virtual Status evaluate(const Program& program, std::span<const float> x,
+                          std::span<const float> y, float spacing, float* f, float* fx,
+                          float* fy) = 0;
+};
+
 /// Generates tiles. Holds evaluators, so it is not thread-safe: use one per thread.
 class TileGenerator {
  public:
   explicit TileGenerator(TileSource source);
+
+  /// Evaluates tile heights with `backend` when it can, else on the CPU (null: CPU only). The
+  /// backend is shared and must be thread-safe.
+  void set_backend(std::shared_ptr<PointsBackend> backend) { backend_ = std::move(backend); }
+  /// What produced the last tile: "cpu", the backend's name, or "cpu (fallback: why)".
+  const std::string& last_backend() const { return last_backend_; }
 
   const TileSource& source() const { return source_; }
 
@@ -120,9 +143,15 @@ class TileGenerator {
                 std::vector<float>& elevation, std::vector<float>* gx, std::vector<float>* gy,
                 std::vector<float>* weight);
 
+  bool evaluate_on_backend(const HeightTile& tile, const std::vector<std::uint8_t>& mapped,
+                           std::vector<float>& elevation, std::vector<float>& gx,
+                           std::vector<float>& gy);
+
   TileSource source_;
   GeoFrame frame_;
   Evaluator terrain_;
+  std::shared_ptr<PointsBackend> backend_;
+  std::string last_backend_ = "cpu";
   std::unique_ptr<Evaluator> water_;
 };
 
