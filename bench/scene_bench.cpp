@@ -1,5 +1,7 @@
 // f(p)/s per core for every example scene: single points (the sphere tracer's access pattern)
-// and 8×8-block grids (tiles), at full detail and at a typical tile's sample spacing.
+// and 8×8-block grids (tiles), at full detail and at a typical tile's sample spacing; and the
+// local scheme's zoom-0 tile (the whole scene, 256² cell centres) generated alone and generated
+// and encoded as a float TIFF.
 #include <benchmark/benchmark.h>
 
 #include <filesystem>
@@ -11,6 +13,7 @@
 #include "terrain/image_io.hpp"
 #include "terrain/program.hpp"
 #include "terrain/scene.hpp"
+#include "terrain/tile_source.hpp"
 
 namespace {
 
@@ -61,6 +64,23 @@ void grid(benchmark::State& state, const std::string& name, int size) {
   state.counters["spacing_m"] = step;
 }
 
+void tile(benchmark::State& state, const std::string& name, bool encode) {
+  const Loaded& l = load(name);
+  TileGenerator generator(TileSource::from_scene(l.scene).value());
+  const TileRequest request{TileScheme::local, {0, 0, 0}, SampleLayout::cell_centres, 256, 0};
+  for (auto _ : state) {
+    const HeightTile t = generator.height_tile(request).value();
+    if (encode) {
+      const std::vector<std::uint8_t> bytes =
+          encode_float_tiff(t.width, t.height, t.elevation.data()).value();
+      benchmark::DoNotOptimize(bytes.data());
+    } else {
+      benchmark::DoNotOptimize(t.elevation.data());
+    }
+  }
+  state.SetItemsProcessed(state.iterations() * 256 * 256);
+}
+
 int register_all() {
   for (const auto& entry : fs::directory_iterator(kScenes)) {
     if (entry.path().extension() != ".json") continue;
@@ -73,6 +93,10 @@ int register_all() {
                                  [name](benchmark::State& s) { grid(s, name, 256); });
     benchmark::RegisterBenchmark(("Grid1024/" + name).c_str(),
                                  [name](benchmark::State& s) { grid(s, name, 1024); });
+    benchmark::RegisterBenchmark(("Tile256/" + name).c_str(),
+                                 [name](benchmark::State& s) { tile(s, name, false); });
+    benchmark::RegisterBenchmark(("Tile256Tiff/" + name).c_str(),
+                                 [name](benchmark::State& s) { tile(s, name, true); });
   }
   return 0;
 }

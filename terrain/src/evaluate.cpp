@@ -53,6 +53,18 @@ void tighten_with_centre(const NodeKernels& k, const float* params, const Bounds
   if (b.weight.lo > b.weight.hi) b.weight.lo = b.weight.hi;
 }
 
+// A subtree ending at `last` has no weight anywhere in the block. Its parent ignores it there: a
+// blend adds nothing (every term is ±0, and an accumulator, a sum started at +0, is never −0, so
+// adding changes no bit), so the following blend_add is skipped too; other parents get a
+// zero-weight field pushed. Returns the instruction to continue from (the loop's ++ follows).
+std::size_t skip_zero_weight(const Instruction* code, std::size_t size, std::size_t last,
+                             FieldBlock& slot, int& sp, int n) {
+  if (last + 1 < size && code[last + 1].op == Op::blend_add) return last + 1;
+  slot.clear(n);
+  ++sp;
+  return last;
+}
+
 }  // namespace
 
 struct Evaluator::Scratch {
@@ -92,8 +104,13 @@ void Evaluator::evaluate(const PointBlock& block, FieldBlock& out) {
     switch (ins.op) {
       case Op::leaf: {
         const NodeKernels& k = s.types[pc]->kernels;
-        const bool weighted_only = ins.skip != 0 && k.leaf_where_weighted != nullptr;
-        (weighted_only ? k.leaf_where_weighted : k.leaf)(params, *frame, fields[sp++]);
+        if (ins.skip == 0 || k.leaf_where_weighted == nullptr) {
+          k.leaf(params, *frame, fields[sp++]);
+        } else if (!k.leaf_where_weighted(params, *frame, fields[sp])) {
+          pc = skip_zero_weight(code, size, pc, fields[sp], sp, n);
+        } else {
+          ++sp;
+        }
         break;
       }
       case Op::blend_begin:
@@ -108,8 +125,7 @@ void Evaluator::evaluate(const PointBlock& block, FieldBlock& out) {
         break;
       case Op::cull:
         if (!frame->box.intersects(stored_box(params))) {
-          fields[sp++].clear(n);
-          pc += ins.skip;
+          pc = skip_zero_weight(code, size, pc + ins.skip, fields[sp], sp, n);
         }
         break;
       case Op::group:
@@ -240,28 +256,37 @@ GridResult evaluate_grid(const Program& program, const GridSpec& grid, int threa
     for (int b = next.fetch_add(1); b < block_count; b = next.fetch_add(1)) {
       const int bx = (b % blocks_x) * kSide;
       const int by = (b / blocks_x) * kSide;
+      const int columns = std::min(kSide, grid.width - bx);
+      const int rows = std::min(kSide, grid.height - by);
+      // Positions in double, then rounded once, so every tile agrees on shared samples.
+      float xs[kSide], ys[kSide];
+      for (int i = 0; i < columns; ++i)
+        xs[i] = static_cast<float>(grid.origin_x + grid.step * (bx + i));
+      for (int j = 0; j < rows; ++j)
+        ys[j] = static_cast<float>(grid.origin_y + grid.step * (by + j));
       block.count = 0;
       block.spacing = spacing;
-      for (int j = by; j < std::min(by + kSide, grid.height); ++j) {
-        for (int i = bx; i < std::min(bx + kSide, grid.width); ++i) {
-          // Positions in double, then rounded once, so every tile agrees on shared samples.
-          block.x[block.count] = static_cast<float>(grid.origin_x + grid.step * i);
-          block.y[block.count] = static_cast<float>(grid.origin_y + grid.step * j);
+      for (int j = 0; j < rows; ++j) {
+        for (int i = 0; i < columns; ++i) {
+          block.x[block.count] = xs[i];
+          block.y[block.count] = ys[j];
           ++block.count;
         }
       }
-      block.recompute_box();
+      // The grid's points are ordered, so the box is that of its first and last rows and columns.
+      block.box = {{std::min(xs[0], xs[columns - 1]), std::min(ys[0], ys[rows - 1])},
+                   {std::max(xs[0], xs[columns - 1]), std::max(ys[0], ys[rows - 1])}};
       evaluator.evaluate(block, out);
-      int k = 0;
-      for (int j = by; j < std::min(by + kSide, grid.height); ++j) {
-        for (int i = bx; i < std::min(bx + kSide, grid.width); ++i, ++k) {
-          const std::size_t at =
-              static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.width) +
-              static_cast<std::size_t>(i);
-          result.elevation[at] = out.f[k];
-          result.gradient_x[at] = out.fx[k];
-          result.gradient_y[at] = out.fy[k];
-        }
+      for (int j = 0; j < rows; ++j) {
+        const std::size_t at =
+            static_cast<std::size_t>(by + j) * static_cast<std::size_t>(grid.width) +
+            static_cast<std::size_t>(bx);
+        const int k = j * columns;
+        std::copy_n(out.f + k, columns, result.elevation.begin() + static_cast<std::ptrdiff_t>(at));
+        std::copy_n(out.fx + k, columns,
+                    result.gradient_x.begin() + static_cast<std::ptrdiff_t>(at));
+        std::copy_n(out.fy + k, columns,
+                    result.gradient_y.begin() + static_cast<std::ptrdiff_t>(at));
       }
     }
   };

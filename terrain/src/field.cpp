@@ -1,12 +1,35 @@
 #include "terrain/field.hpp"
 
 #include <algorithm>
+#include <limits>
+
+#include "simd.hpp"
 
 namespace terrain {
 
-void PointBlock::recompute_box() {
+TERRAIN_SIMD_CLONES void PointBlock::recompute_box() {
+  // Minima and maxima per lane over whole groups of kLanes points (a loop GCC vectorises), then
+  // over the lanes and the last partial group. Each comparison keeps one of its operands (and
+  // skips NaN like Box2::with), so the box does not depend on the grouping.
+  constexpr int kLanes = 16;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  float lox[kLanes], loy[kLanes], hix[kLanes], hiy[kLanes];
+  std::fill_n(lox, kLanes, kInf);
+  std::fill_n(loy, kLanes, kInf);
+  std::fill_n(hix, kLanes, -kInf);
+  std::fill_n(hiy, kLanes, -kInf);
+  int i = 0;
+  for (; i + kLanes <= count; i += kLanes) {
+    for (int l = 0; l < kLanes; ++l) {
+      lox[l] = x[i + l] < lox[l] ? x[i + l] : lox[l];
+      loy[l] = y[i + l] < loy[l] ? y[i + l] : loy[l];
+      hix[l] = hix[l] < x[i + l] ? x[i + l] : hix[l];
+      hiy[l] = hiy[l] < y[i + l] ? y[i + l] : hiy[l];
+    }
+  }
   Box2 b;
-  for (int i = 0; i < count; ++i) b = b.with({x[i], y[i]});
+  for (int l = 0; l < kLanes; ++l) b = b.united({{lox[l], loy[l]}, {hix[l], hiy[l]}});
+  for (; i < count; ++i) b = b.with({x[i], y[i]});
   box = b;
 }
 

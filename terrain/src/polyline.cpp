@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <string>
 
+#include "simd.hpp"
+
 namespace terrain {
 namespace {
 
@@ -63,6 +65,33 @@ double segments_needed(const std::vector<P3>& c, double tol) {
   return std::max(1.0, std::ceil(std::sqrt(m / (8.0 * tol))));
 }
 
+// Squared distance from (px, py) to the segment from (ax, ay) along (ex, ey), with ee = e·e, and
+// the parameter h = clamp(w·e / e·e, 0, 1) of its nearest point, clamped as std::clamp does (NaN
+// stays NaN, and its distance is never the nearest). Branch-free: the searches' loops vectorise.
+TERRAIN_SIMD_INLINE float segment_distance2(float px, float py, float ax, float ay, float ex,
+                                            float ey, float ee, float& h) {
+  const float wx = px - ax, wy = py - ay;
+  const float t = (wx * ex + wy * ey) / ee;
+  h = simd::select(simd::mask_of(t < 0.0f), 0.0f, simd::select(simd::mask_of(1.0f < t), 1.0f, t));
+  const float rx = wx - ex * h, ry = wy - ey * h;
+  return rx * rx + ry * ry;
+}
+
+// Distance to each segment of a chunk (a loop that vectorises; the scan for the nearest stays in
+// order).
+TERRAIN_SIMD_CLONES void chunk_distances(const float* vtx, int first, int count, Vec2 p, float* d2,
+                                         float* hs) {
+  for (int k = 0; k < count; ++k) {
+    const int i = first + k;
+    const float ax = vtx[4 * i], ay = vtx[4 * i + 1];
+    const float ex = vtx[4 * i + 4] - ax, ey = vtx[4 * i + 5] - ay;
+    d2[k] = segment_distance2(p.x, p.y, ax, ay, ex, ey, ex * ex + ey * ey, hs[k]);
+  }
+}
+
+PolylineSample sample_nearest(const float* vtx, int segments, Vec2 p, float cutoff, int best,
+                              float best2, float best_h);
+
 PolylineSample eval_impl(const float* packed, Vec2 p, float cutoff, bool cull,
                          const std::uint16_t* candidates = nullptr, int candidate_count = 0) {
   const int segments = static_cast<int>(packed[0]);
@@ -85,25 +114,28 @@ PolylineSample eval_impl(const float* packed, Vec2 p, float cutoff, bool cull,
       const float dy = std::max(std::max(b[1] - p.y, 0.0f), p.y - b[3]);
       if (dx * dx + dy * dy > std::min(best2, limit2)) continue;
     }
-    for (int k = 0; k < Polyline::kChunkSegments; ++k) {
-      const int i = c * Polyline::kChunkSegments + k;
-      if (i >= segments) break;
-      const Vec2 a{vtx[4 * i], vtx[4 * i + 1]};
-      const Vec2 e = Vec2{vtx[4 * i + 4], vtx[4 * i + 5]} - a;
-      const Vec2 w = p - a;
-      const float h = std::clamp(dot(w, e) / dot(e, e), 0.0f, 1.0f);
-      const Vec2 r = w - e * h;
-      const float d2 = dot(r, r);
-      if (d2 < best2) {
-        best2 = d2;
-        best = i;
-        best_h = h;
+    const int first = c * Polyline::kChunkSegments;
+    const int count = std::min(Polyline::kChunkSegments, segments - first);
+    float d2[Polyline::kChunkSegments];
+    float hs[Polyline::kChunkSegments];
+    chunk_distances(vtx, first, count, p, d2, hs);
+    for (int k = 0; k < count; ++k) {
+      if (d2[k] < best2) {
+        best2 = d2[k];
+        best = first + k;
+        best_h = hs[k];
       }
     }
   }
 
+  return sample_nearest(vtx, segments, p, cutoff, best, best2, best_h);
+}
+
+// The sample for nearest segment `best` (−1: none) at squared distance best2 and parameter best_h.
+PolylineSample sample_nearest(const float* vtx, int segments, Vec2 p, float cutoff, int best,
+                              float best2, float best_h) {
   PolylineSample out;
-  if (best < 0 || best2 > limit2) {
+  if (best < 0 || best2 > cutoff * cutoff) {
     out.distance = cutoff;
     out.signed_distance = cutoff;
     return out;
@@ -347,6 +379,44 @@ int polyline_candidates(const float* packed, const Box2& box, std::uint16_t* out
 PolylineSample polyline_eval_candidates(const float* packed, Vec2 p, const std::uint16_t* chunks,
                                         int count, float cutoff) {
   return eval_impl(packed, p, cutoff, true, chunks, count);
+}
+
+TERRAIN_SIMD_CLONES void polyline_nearest_block(const float* packed, const std::uint16_t* chunks,
+                                                int count, const float* x, const float* y, int n,
+                                                std::int32_t* segment, float* d2, float* h) {
+  const int segments = static_cast<int>(packed[0]);
+  const float* vtx = packed + 2;
+  for (int k = 0; k < n; ++k) {
+    segment[k] = -1;
+    d2[k] = kFloatInf;
+    h[k] = 0.0f;
+  }
+  // Segments in the order eval_impl visits them, each against every point (a loop that
+  // vectorises); strict '<' keeps the first of equal distances, as there. (eval_impl also skips
+  // chunks that cannot hold a closer point, which never changes its answer.)
+  for (int c = 0; c < count; ++c) {
+    const int first = chunks[c] * Polyline::kChunkSegments;
+    const int last = std::min(first + Polyline::kChunkSegments, segments);
+    for (int i = first; i < last; ++i) {
+      const float ax = vtx[4 * i], ay = vtx[4 * i + 1];
+      const float ex = vtx[4 * i + 4] - ax, ey = vtx[4 * i + 5] - ay;
+      const float ee = ex * ex + ey * ey;
+      for (int k = 0; k < n; ++k) {
+        float hk;
+        const float dk = segment_distance2(x[k], y[k], ax, ay, ex, ey, ee, hk);
+        const std::uint32_t closer = simd::mask_of(dk < d2[k]);
+        d2[k] = simd::select(closer, dk, d2[k]);
+        h[k] = simd::select(closer, hk, h[k]);
+        segment[k] = static_cast<std::int32_t>((static_cast<std::uint32_t>(i) & closer) |
+                                               (static_cast<std::uint32_t>(segment[k]) & ~closer));
+      }
+    }
+  }
+}
+
+PolylineSample polyline_sample(const float* packed, Vec2 p, std::int32_t segment, float d2, float h,
+                               float cutoff) {
+  return sample_nearest(packed + 2, static_cast<int>(packed[0]), p, cutoff, segment, d2, h);
 }
 
 PolylineSample polyline_eval_brute_force(const float* packed, Vec2 p) {

@@ -248,12 +248,15 @@ void TileGenerator::place_samples(HeightTile& tile, std::vector<std::uint8_t>& m
   tile.scene_y.resize(count);
   mapped.assign(count, 1);
   if (tile.scheme == TileScheme::local) {
+    std::vector<double> xs(static_cast<std::size_t>(tile.width));
+    for (int col = 0; col < tile.width; ++col)
+      xs[static_cast<std::size_t>(col)] = tile.sample_crs_x(col);
     for (int row = 0; row < tile.height; ++row) {
       const double y = tile.sample_crs_y(row);
-      for (int col = 0; col < tile.width; ++col) {
-        tile.scene_x[tile.index(col, row)] = tile.sample_crs_x(col);
-        tile.scene_y[tile.index(col, row)] = y;
-      }
+      std::copy(xs.begin(), xs.end(),
+                tile.scene_x.begin() + static_cast<std::ptrdiff_t>(tile.index(0, row)));
+      std::fill_n(tile.scene_y.begin() + static_cast<std::ptrdiff_t>(tile.index(0, row)),
+                  tile.width, y);
     }
     return;
   }
@@ -309,13 +312,14 @@ void TileGenerator::evaluate(Evaluator& evaluator, const HeightTile& tile,
       if (block.count == 0) continue;
       block.recompute_box();
       evaluator.evaluate(block, out);
-      for (int k = 0; k < block.count; ++k) {
-        const auto at = static_cast<std::size_t>(index[k]);
-        elevation[at] = out.f[k];
-        if (gx != nullptr) (*gx)[at] = out.fx[k];
-        if (gy != nullptr) (*gy)[at] = out.fy[k];
-        if (weight != nullptr) (*weight)[at] = out.a[k];
-      }
+      const auto scatter = [&](const float* values, std::vector<float>* to) {
+        if (to == nullptr) return;
+        for (int k = 0; k < block.count; ++k) (*to)[static_cast<std::size_t>(index[k])] = values[k];
+      };
+      scatter(out.f, &elevation);
+      scatter(out.fx, gx);
+      scatter(out.fy, gy);
+      scatter(out.a, weight);
     }
   }
 }

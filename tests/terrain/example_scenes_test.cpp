@@ -68,6 +68,11 @@ TEST_P(ExampleScene, CompiledProgramEqualsTree) {
   testing::expect_program_equals_tree(load(GetParam()), 100, 20.0f);
 }
 
+TEST_P(ExampleScene, BlockLayoutChangesNoBit) {
+  testing::expect_block_layout_independent(load(GetParam()), 0.0f);
+  testing::expect_block_layout_independent(load(GetParam()), 30.0f);
+}
+
 TEST_P(ExampleScene, AcceleratedSphereTracingFindsEveryDenseHit) {
   const Scene scene = load(GetParam());
   const Program program = testing::compile_or_die(scene);

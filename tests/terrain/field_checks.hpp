@@ -4,8 +4,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "terrain/evaluate.hpp"
 #include "terrain/program.hpp"
@@ -126,6 +130,69 @@ inline void expect_program_equals_tree(const Scene& scene, int samples, float sp
                 5e-3f * (1 + std::abs(b.elevation_gradient.x)));
     ASSERT_NEAR(a.elevation_gradient.y, b.elevation_gradient.y,
                 5e-3f * (1 + std::abs(b.elevation_gradient.y)));
+  }
+}
+
+/// A point's field does not depend on how points are grouped into blocks (kernels pick dense or
+/// packed paths per block, and neighbouring tiles must agree on shared samples bit for bit): the
+/// same bits for a point alone, in 8×8 blocks of a grid, in blocks offset by a few rows and
+/// columns, and in blocks of points scattered over the whole grid.
+inline void expect_block_layout_independent(const Scene& scene, float spacing) {
+  const Program program = compile_or_die(scene);
+  Evaluator e(program);
+  const Box2 box = sampling_box(scene);
+  constexpr int kSide = 48;  // coarse enough to cross every feature, fine enough for its edges
+  std::vector<Vec2> points;
+  for (int j = 0; j < kSide; ++j) {
+    for (int i = 0; i < kSide; ++i) {
+      points.push_back({box.lo.x + box.size().x * static_cast<float>(i) / (kSide - 1),
+                        box.lo.y + box.size().y * static_cast<float>(j) / (kSide - 1)});
+    }
+  }
+  std::vector<FieldSample> alone;
+  for (const Vec2& p : points) alone.push_back(e.sample(p, spacing));
+  const auto bits = [](float v) { return std::bit_cast<std::uint32_t>(v); };
+  const auto check = [&](const std::vector<int>& members, const char* layout) {
+    PointBlock block;
+    block.count = static_cast<int>(members.size());
+    block.spacing = spacing;
+    for (int k = 0; k < block.count; ++k) {
+      block.x[k] = points[static_cast<std::size_t>(members[static_cast<std::size_t>(k)])].x;
+      block.y[k] = points[static_cast<std::size_t>(members[static_cast<std::size_t>(k)])].y;
+    }
+    block.recompute_box();
+    FieldBlock out;
+    e.evaluate(block, out);
+    for (int k = 0; k < block.count; ++k) {
+      const FieldSample& a = alone[static_cast<std::size_t>(members[static_cast<std::size_t>(k)])];
+      const FieldSample b = out.at(k);
+      ASSERT_TRUE(bits(a.elevation) == bits(b.elevation) && bits(a.weight) == bits(b.weight) &&
+                  bits(a.elevation_gradient.x) == bits(b.elevation_gradient.x) &&
+                  bits(a.elevation_gradient.y) == bits(b.elevation_gradient.y) &&
+                  bits(a.weight_gradient.x) == bits(b.weight_gradient.x) &&
+                  bits(a.weight_gradient.y) == bits(b.weight_gradient.y))
+          << scene.name << ": " << layout << " block changes the field at (" << block.x[k] << ", "
+          << block.y[k] << ")";
+    }
+  };
+  for (const int offset : {0, 3}) {
+    for (int by = -offset; by < kSide; by += 8) {
+      for (int bx = -offset; bx < kSide; bx += 8) {
+        std::vector<int> members;
+        for (int j = std::max(by, 0); j < std::min(by + 8, kSide); ++j) {
+          for (int i = std::max(bx, 0); i < std::min(bx + 8, kSide); ++i) {
+            members.push_back(j * kSide + i);
+          }
+        }
+        if (!members.empty()) check(members, offset == 0 ? "grid" : "offset grid");
+      }
+    }
+  }
+  const int blocks = (kSide * kSide + kBlockSize - 1) / kBlockSize;
+  for (int b = 0; b < blocks; ++b) {
+    std::vector<int> members;
+    for (int k = b; k < kSide * kSide; k += blocks) members.push_back(k);
+    check(members, "scattered");
   }
 }
 

@@ -62,6 +62,11 @@ TEST_P(EveryNodeType, CompiledProgramEqualsTree) {
   testing::expect_program_equals_tree(parse_example(scene_of(*GetParam())), 300);
 }
 
+TEST_P(EveryNodeType, BlockLayoutChangesNoBit) {
+  testing::expect_block_layout_independent(parse_example(scene_of(*GetParam())), 0.0f);
+  testing::expect_block_layout_independent(parse_example(scene_of(*GetParam())), 37.0f);
+}
+
 TEST_P(EveryNodeType, UnknownFieldIsRejectedWithItsPointer) {
   nlohmann::json doc = nlohmann::json::parse(scene_of(*GetParam()));
   doc["root"]["colour"] = "blue";
@@ -102,7 +107,8 @@ TEST(ImagePrimitive, NeedsExactlyOneMapping) {
   ParseOptions options;
   options.images = synthetic_image;
   Result<Scene> both = parse_scene_text(R"({"root": {"type": "image", "image": "a.png",
-    "corners": [[0, 1], [1, 1], [1, 0], [0, 0]], "curve": {"pieces": [[[0, 0, 0], [1, 0, 0]]], "width": 1}}})", options);
+    "corners": [[0, 1], [1, 1], [1, 0], [0, 0]], "curve": {"pieces": [[[0, 0, 0], [1, 0, 0]]], "width": 1}}})",
+                                        options);
   ASSERT_FALSE(both.ok());
   EXPECT_EQ(both.error().pointer, "/root/corners");
   Result<Scene> no_store = parse_scene_text(R"({"root": {"type": "image", "image": "a.png",
@@ -111,7 +117,8 @@ TEST(ImagePrimitive, NeedsExactlyOneMapping) {
   EXPECT_EQ(no_store.error().pointer, "/root/image");
   options.images = [](std::string_view) -> Result<Raster> { return Error{"no such file", ""}; };
   Result<Scene> missing = parse_scene_text(R"({"root": {"type": "image", "image": "gone.png",
-    "corners": [[0, 1], [1, 1], [1, 0], [0, 0]]}})", options);
+    "corners": [[0, 1], [1, 1], [1, 0], [0, 0]]}})",
+                                           options);
   ASSERT_FALSE(missing.ok());
   EXPECT_EQ(missing.error().pointer, "/root/image");
   EXPECT_NE(missing.error().message.find("gone.png"), std::string::npos);

@@ -1162,8 +1162,9 @@ TEST(Fractal, WarpedBoundGrowsWithRadiusOnlyWhenRotating) {
 }
 
 TEST(Fractal, BatchEqualsScalarBitForBit) {
-  // The batch path runs the AVX2 clone where the CPU has it; the single-point path is scalar
-  // baseline code. Both must give the same bits, for every kind, basis and a partial last chunk.
+  // The batch path runs 16- or 8-lane vectors where the CPU has AVX-512 or AVX2 (gradient noise)
+  // or loops GCC vectorised; the single-point path is scalar baseline code. Both must give the
+  // same bits, for every kind, basis and a partial last vector or chunk.
   std::mt19937 rng(47);
   const std::size_t n = 1000;
   std::vector<float> xs(n), ys(n), zs(n), v(n), dx(n), dy(n), dz(n);
@@ -1201,15 +1202,47 @@ TEST(Fractal, BatchEqualsScalarBitForBit) {
       }
     }
   }
-  // Sizes around the chunk length, and the empty call.
-  for (const std::size_t m : {0u, 1u, 127u, 128u, 129u, 256u, 300u}) {
-    const FractalParams p = test_params(Fractal::ridged, Basis::simplex);
-    std::vector<float> w(m + 1, -7.0f), wx(m + 1), wy(m + 1);
-    fractal2(p, xs.data(), ys.data(), m, 6.0f, w.data(), wx.data(), wy.data());
-    for (std::size_t i = 0; i < m; ++i) {
-      ASSERT_EQ(bits(w[i]), bits(fractal2(p, Vec2{xs[i], ys[i]}, 6.0f).value)) << m;
+  // Sizes around the vector lengths and the chunk length, and the empty call.
+  for (const Basis basis : kBases) {
+    for (const std::size_t m : {0u, 1u, 7u, 8u, 9u, 15u, 16u, 17u, 63u, 127u, 128u, 129u, 300u}) {
+      const FractalParams p = test_params(Fractal::ridged, basis);
+      std::vector<float> w(m + 1, -7.0f), wx(m + 1, -7.0f), wy(m + 1, -7.0f);
+      fractal2(p, xs.data(), ys.data(), m, 6.0f, w.data(), wx.data(), wy.data());
+      for (std::size_t i = 0; i < m; ++i) {
+        ASSERT_EQ(bits(w[i]), bits(fractal2(p, Vec2{xs[i], ys[i]}, 6.0f).value)) << m;
+      }
+      EXPECT_EQ(w[m], -7.0f) << "wrote past the end for n = " << m;
+      EXPECT_EQ(wx[m], -7.0f) << "wrote past the end for n = " << m;
+      EXPECT_EQ(wy[m], -7.0f) << "wrote past the end for n = " << m;
     }
-    EXPECT_EQ(w[m], -7.0f) << "wrote past the end for n = " << m;
+  }
+}
+
+TEST(Fractal, AtSpacingEqualsTheVisibleOctavesBitForBit) {
+  // fractal2_at_spacing caches plans per (parameters, spacing): interleave more fractals than the
+  // cache holds, in several rounds, so that hits, misses and evictions all occur.
+  std::mt19937 rng(61);
+  const std::size_t n = 40;
+  std::vector<float> xs(n), ys(n), v(n), dx(n), dy(n), w(n), wx(n), wy(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec2 q = in_disc(rng, 300.0f);
+    xs[i] = q.x;
+    ys[i] = q.y;
+  }
+  for (int round = 0; round < 3; ++round) {
+    for (std::uint32_t seed = 0; seed < 400; seed += 1 + static_cast<std::uint32_t>(round)) {
+      const FractalParams p = test_params(kKinds[seed % std::size(kKinds)],
+                                          kBases[(seed / 4) % std::size(kBases)], seed);
+      const float spacing = std::array{0.0f, 0.7f, 3.0f, 25.0f}[seed % 4];
+      fractal2_at_spacing(p, spacing, xs.data(), ys.data(), n, v.data(), dx.data(), dy.data());
+      fractal2(p, xs.data(), ys.data(), n, visible_octaves(p, spacing), w.data(), wx.data(),
+               wy.data());
+      for (std::size_t i = 0; i < n; ++i) {
+        ASSERT_EQ(bits(v[i]), bits(w[i])) << label(p) << " spacing " << spacing;
+        ASSERT_EQ(bits(dx[i]), bits(wx[i])) << label(p) << " spacing " << spacing;
+        ASSERT_EQ(bits(dy[i]), bits(wy[i])) << label(p) << " spacing " << spacing;
+      }
+    }
   }
 }
 

@@ -6,7 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -186,6 +189,47 @@ TEST(Polyline, BlockCandidatesGiveTheSameAnswersAsAFullSearch) {
       ASSERT_EQ(a.segment, e.segment);
       ASSERT_EQ(a.signed_distance, e.signed_distance);
       ASSERT_EQ(a.s, e.s);
+    }
+  }
+}
+
+TEST(Polyline, BlockSearchGivesTheSameAnswersAsPointQueries) {
+  const Polyline line = make(spiral(16 * 6));
+  std::vector<float> packed;
+  line.pack(packed);
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> c(-120.0f, 120.0f), size(0.1f, 40.0f);
+  for (int b = 0; b < 300; ++b) {
+    const Vec2 lo{c(rng), c(rng)};
+    const Box2 box{lo, lo + Vec2{size(rng), size(rng)}};
+    // Half the blocks with a cut-off, which also prunes the candidates.
+    const float cutoff = b % 2 == 0 ? std::numeric_limits<float>::infinity() : 6.0f;
+    std::uint16_t candidates[256];
+    const int count = polyline_candidates(packed.data(), box, candidates, 256, cutoff);
+    if (count <= 0) continue;
+    std::uniform_real_distribution<float> ux(box.lo.x, box.hi.x), uy(box.lo.y, box.hi.y);
+    constexpr int kPoints = 37;
+    float xs[kPoints], ys[kPoints], d2[kPoints], h[kPoints];
+    std::int32_t segment[kPoints];
+    for (int i = 0; i < kPoints; ++i) {
+      xs[i] = ux(rng);
+      ys[i] = uy(rng);
+    }
+    polyline_nearest_block(packed.data(), candidates, count, xs, ys, kPoints, segment, d2, h);
+    for (int i = 0; i < kPoints; ++i) {
+      const Vec2 p{xs[i], ys[i]};
+      const PolylineSample a = polyline_sample(packed.data(), p, segment[i], d2[i], h[i], cutoff);
+      const PolylineSample e =
+          polyline_eval_candidates(packed.data(), p, candidates, count, cutoff);
+      ASSERT_EQ(a.found, e.found);
+      ASSERT_EQ(a.segment, e.segment);
+      ASSERT_EQ(a.vertex, e.vertex);
+      ASSERT_EQ(std::bit_cast<std::uint32_t>(a.signed_distance),
+                std::bit_cast<std::uint32_t>(e.signed_distance));
+      ASSERT_EQ(std::bit_cast<std::uint32_t>(a.s), std::bit_cast<std::uint32_t>(e.s));
+      ASSERT_EQ(std::bit_cast<std::uint32_t>(a.z), std::bit_cast<std::uint32_t>(e.z));
+      ASSERT_EQ(std::bit_cast<std::uint32_t>(a.grad_d.x), std::bit_cast<std::uint32_t>(e.grad_d.x));
+      ASSERT_EQ(std::bit_cast<std::uint32_t>(a.grad_s.y), std::bit_cast<std::uint32_t>(e.grad_s.y));
     }
   }
 }

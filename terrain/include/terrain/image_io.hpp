@@ -49,7 +49,7 @@ Result<Raster> read_heightfield(const std::string& path, const ReadLimits& limit
 Result<Raster> decode_heightfield(std::span<const std::uint8_t> bytes, std::string_view format_hint,
                                   const ReadLimits& limits = {});
 
-/// Single-channel 32-bit float TIFF (zip-compressed), row 0 first.
+/// Single-channel 32-bit float TIFF (deflate at level 1, the fastest), row 0 first.
 Result<std::vector<std::uint8_t>> encode_float_tiff(int width, int height, const float* samples);
 /// Single-channel 16-bit greyscale PNG.
 Result<std::vector<std::uint8_t>> encode_png16(int width, int height, const std::uint16_t* samples);

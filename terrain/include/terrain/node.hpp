@@ -41,8 +41,10 @@ struct NodeKernels {
   void (*leaf)(const float* params, const PointBlock& points, FieldBlock& out) = nullptr;
   NodeBounds (*leaf_bounds)(const float* params, const BoundsQuery& query) = nullptr;
   /// Optional: the same where the parent ignores f wherever α = 0 (blend children, the B side of
-  /// replace/add), so f may be left arbitrary (finite) there and its work skipped.
-  void (*leaf_where_weighted)(const float* params, const PointBlock& points,
+  /// replace/add), so f may be left arbitrary (finite) there and its work skipped. Returns false,
+  /// leaving `out` unwritten, when α = 0 at every point: the interpreter then treats the leaf as
+  /// culled for this block.
+  bool (*leaf_where_weighted)(const float* params, const PointBlock& points,
                               FieldBlock& out) = nullptr;
   // binary: `out` may alias `a`
   void (*combine)(const float* params, const PointBlock& points, const FieldBlock& a,

@@ -12,14 +12,22 @@
 
 namespace terrain::noise {
 
-/// Integer hash of one 32-bit word ("lowbias32": xorshift-multiply, full avalanche).
-constexpr std::uint32_t hash(std::uint32_t x) {
+namespace detail {
+/// lowbias32 on a 32-bit word, or on each lane of a vector of words (the batch kernels).
+template <class U>
+constexpr U lowbias32(U x) {
   x ^= x >> 16;
   x *= 0x7feb352dU;
   x ^= x >> 15;
   x *= 0x846ca68bU;
   x ^= x >> 16;
   return x;
+}
+}  // namespace detail
+
+/// Integer hash of one 32-bit word ("lowbias32": xorshift-multiply, full avalanche).
+constexpr std::uint32_t hash(std::uint32_t x) {
+  return detail::lowbias32(x);
 }
 /// Hash of a structured key: each word is folded in turn, so (a, b) and (b, a) differ.
 constexpr std::uint32_t hash(std::uint32_t a, std::uint32_t b) {
@@ -100,6 +108,11 @@ float octave_weight(int i, float octaves);
 void fractal2(const FractalParams& p, const float* x, const float* y, std::size_t n, float octaves,
               float* value, float* dx, float* dy);
 Sample2 fractal2(const FractalParams& p, Vec2 point, float octaves);
+/// fractal2 with visible_octaves(p, spacing) octaves, bit for bit; the octave count and the
+/// per-octave constants are cached per (p, spacing), so kernels that evaluate block after block at
+/// one level of detail compute neither again.
+void fractal2_at_spacing(const FractalParams& p, float spacing, const float* x, const float* y,
+                         std::size_t n, float* value, float* dx, float* dy);
 
 /// The same over 3D positions (for planets): value and gradient.
 void fractal3(const FractalParams& p, const float* x, const float* y, const float* z, std::size_t n,

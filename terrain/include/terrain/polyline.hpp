@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <span>
 #include <vector>
@@ -122,5 +123,16 @@ PolylineSample polyline_eval_candidates(const float* packed, Vec2 p, const std::
                                         float cutoff = std::numeric_limits<float>::infinity());
 /// Same query without chunk culling.
 PolylineSample polyline_eval_brute_force(const float* packed, Vec2 p);
+
+/// The nearest segment (−1: none), its squared distance and the parameter h of the nearest point
+/// on it for each of n points, among the segments of `chunks` (as from polyline_candidates for a
+/// box holding the points): the choice polyline_eval_candidates makes, bit for bit. Segments are
+/// visited once for all points, so the loop over points vectorises.
+void polyline_nearest_block(const float* packed, const std::uint16_t* chunks, int count,
+                            const float* x, const float* y, int n, std::int32_t* segment, float* d2,
+                            float* h);
+/// The query's result for a point whose nearest segment polyline_nearest_block found.
+PolylineSample polyline_sample(const float* packed, Vec2 p, std::int32_t segment, float d2, float h,
+                               float cutoff = std::numeric_limits<float>::infinity());
 
 }  // namespace terrain

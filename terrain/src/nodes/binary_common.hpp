@@ -4,16 +4,18 @@
 
 #include <algorithm>
 
+#include "simd.hpp"
 #include "terrain/field.hpp"
 
 namespace terrain {
 
-/// Clamped weight b = min(α, 1) and its gradient (zero where clamped).
+/// Clamped weight b = min(α, 1) and its gradient (zero where clamped); branch-free, so the
+/// operators' loops over points vectorise.
 inline void clamped_weight(const FieldBlock& b, int i, float& w, float& wx, float& wy) {
-  const bool inside = b.a[i] < 1.0f;
-  w = inside ? b.a[i] : 1.0f;
-  wx = inside ? b.ax[i] : 0.0f;
-  wy = inside ? b.ay[i] : 0.0f;
+  const std::uint32_t inside = simd::mask_of(b.a[i] < 1.0f);
+  w = simd::select(inside, b.a[i], 1.0f);
+  wx = simd::select(inside, b.ax[i], 0.0f);
+  wy = simd::select(inside, b.ay[i], 0.0f);
 }
 
 /// Upper bound of |x − y| for x, y in the two intervals.

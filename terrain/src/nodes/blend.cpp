@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "field_reader.hpp"
+#include "simd.hpp"
 #include "terrain/scene.hpp"
 
 namespace terrain {
@@ -27,7 +28,7 @@ void blend_clear(FieldBlock& acc, int count) {
   acc.clear(count);
 }
 
-void blend_accumulate(FieldBlock& acc, const FieldBlock& c, int count) {
+TERRAIN_SIMD_CLONES void blend_accumulate(FieldBlock& acc, const FieldBlock& c, int count) {
   for (int i = 0; i < count; ++i) {
     acc.f[i] += c.a[i] * c.f[i];
     acc.a[i] += c.a[i];
@@ -38,21 +39,23 @@ void blend_accumulate(FieldBlock& acc, const FieldBlock& c, int count) {
   }
 }
 
-void blend_finish(const float* params, FieldBlock& acc, int count) {
+TERRAIN_SIMD_CLONES void blend_finish(const float* params, FieldBlock& acc, int count) {
   const float threshold = params[kThreshold];
   const float base = params[kBase];
   for (int i = 0; i < count; ++i) {
+    // Both cases are computed and one is selected, so the loop vectorises; the other's division
+    // by a possibly zero sum is dropped.
     const float sum = acc.a[i];
-    if (sum >= threshold) {
-      const float f = acc.f[i] / sum;
-      acc.fx[i] = (acc.fx[i] - f * acc.ax[i]) / sum;
-      acc.fy[i] = (acc.fy[i] - f * acc.ay[i]) / sum;
-      acc.f[i] = f;
-    } else {
-      acc.f[i] = (acc.f[i] + (threshold - sum) * base) / threshold;
-      acc.fx[i] = (acc.fx[i] - base * acc.ax[i]) / threshold;
-      acc.fy[i] = (acc.fy[i] - base * acc.ay[i]) / threshold;
-    }
+    const float f = acc.f[i] / sum;
+    const float fx = (acc.fx[i] - f * acc.ax[i]) / sum;
+    const float fy = (acc.fy[i] - f * acc.ay[i]) / sum;
+    const float bf = (acc.f[i] + (threshold - sum) * base) / threshold;
+    const float bfx = (acc.fx[i] - base * acc.ax[i]) / threshold;
+    const float bfy = (acc.fy[i] - base * acc.ay[i]) / threshold;
+    const std::uint32_t weighted = simd::mask_of(sum >= threshold);
+    acc.f[i] = simd::select(weighted, f, bf);
+    acc.fx[i] = simd::select(weighted, fx, bfx);
+    acc.fy[i] = simd::select(weighted, fy, bfy);
   }
 }
 

@@ -117,8 +117,9 @@ Result<NodeParams> parse_curve(FieldReader& reader, ParseContext&) {
 }
 
 // `cutoff`: points farther from the skeleton get α = 0 and an arbitrary f (only for parents that
-// ignore f where α = 0); infinity evaluates every point exactly.
-void curve_field(const float* params, const PointBlock& points, FieldBlock& out, float cutoff) {
+// ignore f where α = 0); infinity evaluates every point exactly. Returns false, writing nothing,
+// when no point of the block is within the cut-off.
+bool curve_field(const float* params, const PointBlock& points, FieldBlock& out, float cutoff) {
   const float falloff = params[kFalloff];
   const float length = params[kLength];
   const std::uint32_t count = as_count(params[kProfiles]);
@@ -127,11 +128,20 @@ void curve_field(const float* params, const PointBlock& points, FieldBlock& out,
   // Chunks that can be nearest for some point of the block: found once, used by every point.
   std::uint16_t candidates[256];
   const int candidate_count = polyline_candidates(polyline, points.box, candidates, 256, cutoff);
+  if (candidate_count == 0) return false;
+  // The nearest segment of every point, found for the whole block at once.
+  std::int32_t nearest[kBlockSize];
+  float nearest_d2[kBlockSize];
+  float nearest_h[kBlockSize];
+  if (candidate_count > 0) {
+    polyline_nearest_block(polyline, candidates, candidate_count, points.x, points.y, points.count,
+                           nearest, nearest_d2, nearest_h);
+  }
   for (int i = 0; i < points.count; ++i) {
     const Vec2 p{points.x[i], points.y[i]};
     const PolylineSample q =
-        candidate_count >= 0
-            ? polyline_eval_candidates(polyline, p, candidates, candidate_count, cutoff)
+        candidate_count > 0
+            ? polyline_sample(polyline, p, nearest[i], nearest_d2[i], nearest_h[i], cutoff)
             : polyline_eval(polyline, p, cutoff);
     if (!q.found) {
       out.f[i] = out.fx[i] = out.fy[i] = out.a[i] = out.ax[i] = out.ay[i] = 0.0f;
@@ -170,15 +180,19 @@ void curve_field(const float* params, const PointBlock& points, FieldBlock& out,
     out.ax[i] = dg * sign * q.grad_d.x;
     out.ay[i] = dg * sign * q.grad_d.y;
   }
+  return true;
 }
 
 void curve_leaf(const float* params, const PointBlock& points, FieldBlock& out) {
-  curve_field(params, points, out, std::numeric_limits<float>::infinity());
+  // No chunk is a candidate only for a degenerate box: every point is then "not found", zero.
+  if (!curve_field(params, points, out, std::numeric_limits<float>::infinity())) {
+    out.clear(points.count);
+  }
 }
 
-void curve_leaf_where_weighted(const float* params, const PointBlock& points, FieldBlock& out) {
+bool curve_leaf_where_weighted(const float* params, const PointBlock& points, FieldBlock& out) {
   // Beyond core + fall-off the weight is zero.
-  curve_field(params, points, out, (params[kCore] + params[kFalloff]) * 1.001f);
+  return curve_field(params, points, out, (params[kCore] + params[kFalloff]) * 1.001f);
 }
 
 NodeBounds curve_bounds(const float* params, const BoundsQuery& query) {

@@ -5,6 +5,7 @@
 
 #include "field_reader.hpp"
 #include "nodes/fractal_params.hpp"
+#include "simd.hpp"
 
 namespace terrain {
 namespace {
@@ -27,38 +28,70 @@ Result<NodeParams> parse_disc(FieldReader& reader, ParseContext& context) {
   return out;
 }
 
-void disc_leaf(const float* params, const PointBlock& points, FieldBlock& out) {
-  const Vec2 c{params[kCenterX], params[kCenterY]};
-  const float radius = params[kRadius];
-  const noise::FractalParams fractal = unpack_fractal(params + kFractal);
-  const int n = points.count;
-  alignas(64) float lx[kBlockSize];
-  alignas(64) float ly[kBlockSize];
+// Offsets from the centre, and whether each point is strictly inside the disc (d² < r²).
+// Returns the number of points inside.
+TERRAIN_SIMD_CLONES int disc_offsets(Vec2 c, float radius, int n, const float* x, const float* y,
+                                     float* lx, float* ly, std::uint32_t* inside) {
+  const float r2 = radius * radius;
+  int count = 0;
   for (int i = 0; i < n; ++i) {
-    lx[i] = points.x[i] - c.x;
-    ly[i] = points.y[i] - c.y;
+    lx[i] = x[i] - c.x;
+    ly[i] = y[i] - c.y;
+    const bool in = lx[i] * lx[i] + ly[i] * ly[i] < r2;
+    inside[i] = simd::mask_of(in);
+    count += static_cast<int>(in);
   }
+  return count;
+}
+
+// Wyvill's fall-off of the distance to the centre, and its gradient.
+TERRAIN_SIMD_CLONES void disc_weights(float radius, int n, const float* lx, const float* ly,
+                                      FieldBlock& out) {
   for (int i = 0; i < n; ++i) {
     const float d = std::sqrt(lx[i] * lx[i] + ly[i] * ly[i]);
-    float g = 0.0f;
-    float dg = 0.0f;
+    float g, dg;
     Falloff::eval(d, radius, g, dg);
-    const float inv = d > 0.0f ? dg / d : 0.0f;
+    const float inv = simd::select(simd::mask_of(d > 0.0f), dg / d, 0.0f);
     out.a[i] = g;
     out.ax[i] = inv * lx[i];
     out.ay[i] = inv * ly[i];
   }
+}
+
+// Points outside get f = c_z, zero weight and zero gradients whichever path their block took (the
+// noise computed there by the dense path is dropped), so a point's field never depends on its
+// block.
+TERRAIN_SIMD_CLONES void disc_outside_to_plateau(float elevation, int n,
+                                                 const std::uint32_t* inside, FieldBlock& out) {
+  for (int i = 0; i < n; ++i) {
+    const std::uint32_t m = inside[i];
+    out.f[i] = simd::select(m, out.f[i], elevation);
+    out.a[i] = simd::select(m, out.a[i], 0.0f);
+    out.fx[i] = simd::select(m, out.fx[i], 0.0f);
+    out.fy[i] = simd::select(m, out.fy[i], 0.0f);
+    out.ax[i] = simd::select(m, out.ax[i], 0.0f);
+    out.ay[i] = simd::select(m, out.ay[i], 0.0f);
+  }
+}
+
+// Elevation c_z + noise at the offsets (lx, ly) (which the warped kind may project onto the rim).
+void disc_elevation(const float* params, float spacing, int n, float* lx, float* ly, float* f,
+                    float* fx, float* fy) {
+  const float radius = params[kRadius];
+  // Locals, not reads through `params`, which the compiler must assume the outputs may alias.
+  const float elevation = params[kElevation];
+  const noise::FractalParams fractal = unpack_fractal(params + kFractal);
   if (fractal.amplitude == 0.0f) {
     for (int i = 0; i < n; ++i) {
-      out.f[i] = params[kElevation];
-      out.fx[i] = 0.0f;
-      out.fy[i] = 0.0f;
+      f[i] = elevation;
+      fx[i] = 0.0f;
+      fy[i] = 0.0f;
     }
     return;
   }
-  const float octaves = noise::visible_octaves(fractal, points.spacing);
+  const auto count = static_cast<std::size_t>(n);
   if (fractal.kind != noise::Fractal::warped) {
-    noise::fractal2(fractal, lx, ly, static_cast<std::size_t>(n), octaves, out.f, out.fx, out.fy);
+    noise::fractal2_at_spacing(fractal, spacing, lx, ly, count, f, fx, fy);
   } else {
     // The warped fractal's slope grows with the distance from its origin, so it is evaluated on
     // the disc and extended radially outside it: f stays Lipschitz on the whole plane.
@@ -69,55 +102,71 @@ void disc_leaf(const float* params, const PointBlock& points, FieldBlock& out) {
       lx[i] *= scale[i];
       ly[i] *= scale[i];
     }
-    noise::fractal2(fractal, lx, ly, static_cast<std::size_t>(n), octaves, out.f, out.fx, out.fy);
+    noise::fractal2_at_spacing(fractal, spacing, lx, ly, count, f, fx, fy);
     for (int i = 0; i < n; ++i) {
       if (scale[i] < 1.0f) {
         // Gradient through the radial projection q = r·u: J = (r/|l|)(I − u uᵀ), symmetric.
         const float ux = lx[i] / radius;
         const float uy = ly[i] / radius;
-        const float radial = out.fx[i] * ux + out.fy[i] * uy;
-        out.fx[i] = scale[i] * (out.fx[i] - radial * ux);
-        out.fy[i] = scale[i] * (out.fy[i] - radial * uy);
+        const float radial = fx[i] * ux + fy[i] * uy;
+        fx[i] = scale[i] * (fx[i] - radial * ux);
+        fy[i] = scale[i] * (fy[i] - radial * uy);
       }
     }
   }
-  for (int i = 0; i < n; ++i) out.f[i] += params[kElevation];
+  for (int i = 0; i < n; ++i) f[i] += elevation;
 }
 
-// Only points inside the disc get noise: elsewhere α = 0 and the parent ignores f.
-void disc_leaf_where_weighted(const float* params, const PointBlock& points, FieldBlock& out) {
-  const Vec2 c{params[kCenterX], params[kCenterY]};
-  const float radius = params[kRadius];
-  PointBlock inside;
-  int map[kBlockSize];
-  inside.count = 0;
-  inside.spacing = points.spacing;
-  for (int i = 0; i < points.count; ++i) {
-    const float dx = points.x[i] - c.x, dy = points.y[i] - c.y;
-    if (dx * dx + dy * dy < radius * radius) {
-      inside.x[inside.count] = points.x[i];
-      inside.y[inside.count] = points.y[i];
-      map[inside.count++] = i;
+void disc_leaf(const float* params, const PointBlock& points, FieldBlock& out) {
+  const int n = points.count;
+  alignas(64) float lx[kBlockSize];
+  alignas(64) float ly[kBlockSize];
+  alignas(64) std::uint32_t inside[kBlockSize];
+  disc_offsets({params[kCenterX], params[kCenterY]}, params[kRadius], n, points.x, points.y, lx, ly,
+               inside);
+  disc_weights(params[kRadius], n, lx, ly, out);
+  disc_elevation(params, points.spacing, n, lx, ly, out.f, out.fx, out.fy);
+}
+
+// Only points inside the disc need noise: elsewhere α = 0 and the parent ignores f.
+bool disc_leaf_where_weighted(const float* params, const PointBlock& points, FieldBlock& out) {
+  const int n = points.count;
+  alignas(64) float lx[kBlockSize];
+  alignas(64) float ly[kBlockSize];
+  alignas(64) std::uint32_t inside[kBlockSize];
+  const int count = disc_offsets({params[kCenterX], params[kCenterY]}, params[kRadius], n, points.x,
+                                 points.y, lx, ly, inside);
+  if (count == 0) return false;
+  disc_weights(params[kRadius], n, lx, ly, out);
+  // The noise kernels run over vectors of 8 or 16 points: evaluating the outside points of a vector
+  // costs nothing more, so the inside points are packed only when that saves whole groups of 8.
+  if ((count + 7) / 8 == (n + 7) / 8) {
+    disc_elevation(params, points.spacing, n, lx, ly, out.f, out.fx, out.fy);
+  } else {
+    alignas(64) float px[kBlockSize];
+    alignas(64) float py[kBlockSize];
+    alignas(64) float pf[kBlockSize];
+    alignas(64) float pfx[kBlockSize];
+    alignas(64) float pfy[kBlockSize];
+    int index[kBlockSize];
+    int k = 0;
+    for (int i = 0; i < n; ++i) {
+      index[k] = i;
+      k += static_cast<int>(inside[i] & 1u);
     }
-    out.f[i] = params[kElevation];
-    out.a[i] = out.fx[i] = out.fy[i] = out.ax[i] = out.ay[i] = 0.0f;
+    for (k = 0; k < count; ++k) {
+      px[k] = lx[index[k]];
+      py[k] = ly[index[k]];
+    }
+    disc_elevation(params, points.spacing, count, px, py, pf, pfx, pfy);
+    for (k = 0; k < count; ++k) {
+      out.f[index[k]] = pf[k];
+      out.fx[index[k]] = pfx[k];
+      out.fy[index[k]] = pfy[k];
+    }
   }
-  if (inside.count == 0) return;
-  if (inside.count == points.count) {
-    disc_leaf(params, points, out);
-    return;
-  }
-  FieldBlock packed;
-  disc_leaf(params, inside, packed);
-  for (int k = 0; k < inside.count; ++k) {
-    const int i = map[k];
-    out.f[i] = packed.f[k];
-    out.a[i] = packed.a[k];
-    out.fx[i] = packed.fx[k];
-    out.fy[i] = packed.fy[k];
-    out.ax[i] = packed.ax[k];
-    out.ay[i] = packed.ay[k];
-  }
+  if (count < n) disc_outside_to_plateau(params[kElevation], n, inside, out);
+  return true;
 }
 
 NodeBounds disc_bounds(const float* params, const BoundsQuery& query) {

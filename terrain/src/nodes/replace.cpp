@@ -18,10 +18,11 @@ Result<NodeParams> parse_replace(FieldReader& reader, ParseContext&) {
   return out;
 }
 
-void replace_combine(const float* params, const PointBlock& points, const FieldBlock& a,
-                     const FieldBlock& b, FieldBlock& out) {
-  const bool progressive = params[0] != 0.0f;
-  for (int i = 0; i < points.count; ++i) {
+// `out` may alias `a`: each point's inputs are read before its outputs are written.
+template <bool kProgressive>
+TERRAIN_SIMD_INLINE void replace_points(int count, const FieldBlock& a, const FieldBlock& b,
+                                        FieldBlock& out) {
+  for (int i = 0; i < count; ++i) {
     float w, wx, wy;
     clamped_weight(b, i, w, wx, wy);
     const float diff = b.f[i] - a.f[i];
@@ -29,7 +30,7 @@ void replace_combine(const float* params, const PointBlock& points, const FieldB
     const float fy = a.fy[i] + w * (b.fy[i] - a.fy[i]) + wy * diff;
     const float f = a.f[i] + w * diff;
     float alpha = a.a[i], alpha_x = a.ax[i], alpha_y = a.ay[i];
-    if (progressive) {
+    if constexpr (kProgressive) {
       alpha = (1.0f - w) * a.a[i] + w * w;
       alpha_x = (1.0f - w) * a.ax[i] - wx * a.a[i] + 2.0f * w * wx;
       alpha_y = (1.0f - w) * a.ay[i] - wy * a.a[i] + 2.0f * w * wy;
@@ -40,6 +41,16 @@ void replace_combine(const float* params, const PointBlock& points, const FieldB
     out.a[i] = alpha;
     out.ax[i] = alpha_x;
     out.ay[i] = alpha_y;
+  }
+}
+
+TERRAIN_SIMD_CLONES void replace_combine(const float* params, const PointBlock& points,
+                                         const FieldBlock& a, const FieldBlock& b,
+                                         FieldBlock& out) {
+  if (params[0] != 0.0f) {
+    replace_points<true>(points.count, a, b, out);
+  } else {
+    replace_points<false>(points.count, a, b, out);
   }
 }
 

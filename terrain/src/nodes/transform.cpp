@@ -4,6 +4,7 @@
 #include <numbers>
 
 #include "field_reader.hpp"
+#include "simd.hpp"
 
 namespace terrain {
 namespace {
@@ -63,9 +64,11 @@ Result<NodeParams> parse_transform(FieldReader& reader, ParseContext&) {
   return out;
 }
 
-void transform_points(const float* params, const PointBlock& in, PointBlock& out,
-                      WarpJacobian& jacobian) {
-  const float* a = params;  // inverse
+// The matrices are read into locals first: the loops' outputs could alias `params` as far as the
+// compiler knows, which would keep it from vectorising them.
+TERRAIN_SIMD_CLONES void transform_points(const float* params, const PointBlock& in,
+                                          PointBlock& out, WarpJacobian& jacobian) {
+  const float a[6] = {params[0], params[1], params[2], params[3], params[4], params[5]};  // inverse
   out.count = in.count;
   out.spacing = in.spacing * params[14];
   for (int i = 0; i < in.count; ++i) {
@@ -76,8 +79,9 @@ void transform_points(const float* params, const PointBlock& in, PointBlock& out
   out.recompute_box();
 }
 
-void transform_field(const float* params, int count, const WarpJacobian&, FieldBlock& field) {
-  const float* a = params;
+TERRAIN_SIMD_CLONES void transform_field(const float* params, int count, const WarpJacobian&,
+                                         FieldBlock& field) {
+  const float a[4] = {params[0], params[1], params[2], params[3]};
   const float zs = params[12];
   const float zo = params[13];
   for (int i = 0; i < count; ++i) {

@@ -4,6 +4,7 @@
 
 #include "field_reader.hpp"
 #include "nodes/fractal_params.hpp"
+#include "simd.hpp"
 
 namespace terrain {
 namespace {
@@ -44,15 +45,9 @@ Result<NodeParams> parse_warp(FieldReader& reader, ParseContext& context) {
   return out;
 }
 
-void warp_points(const float* params, const PointBlock& in, PointBlock& out, WarpJacobian& j) {
-  const noise::FractalParams px = component(params, 1);
-  const noise::FractalParams py = component(params, 2);
-  const float octaves = noise::visible_octaves(px, in.spacing);
-  const auto n = static_cast<std::size_t>(in.count);
-  alignas(64) float dx[kBlockSize];
-  alignas(64) float dy[kBlockSize];
-  noise::fractal2(px, in.x, in.y, n, octaves, dx, j.xx, j.xy);
-  noise::fractal2(py, in.x, in.y, n, octaves, dy, j.yx, j.yy);
+// q = p + d(p) and ∂q/∂p = I + ∂d/∂p, from the displacement and its derivatives.
+TERRAIN_SIMD_CLONES void displace(const PointBlock& in, const float* dx, const float* dy,
+                                  PointBlock& out, WarpJacobian& j) {
   out.count = in.count;
   out.spacing = in.spacing;
   for (int i = 0; i < in.count; ++i) {
@@ -61,10 +56,23 @@ void warp_points(const float* params, const PointBlock& in, PointBlock& out, War
     j.xx[i] += 1.0f;
     j.yy[i] += 1.0f;
   }
+}
+
+void warp_points(const float* params, const PointBlock& in, PointBlock& out, WarpJacobian& j) {
+  const noise::FractalParams px = component(params, 1);
+  const noise::FractalParams py = component(params, 2);
+  // The components differ only in their seeds, so they share the octave count of the spacing.
+  const auto n = static_cast<std::size_t>(in.count);
+  alignas(64) float dx[kBlockSize];
+  alignas(64) float dy[kBlockSize];
+  noise::fractal2_at_spacing(px, in.spacing, in.x, in.y, n, dx, j.xx, j.xy);
+  noise::fractal2_at_spacing(py, in.spacing, in.x, in.y, n, dy, j.yx, j.yy);
+  displace(in, dx, dy, out, j);
   out.recompute_box();
 }
 
-void warp_field(const float*, int count, const WarpJacobian& j, FieldBlock& field) {
+TERRAIN_SIMD_CLONES void warp_field(const float*, int count, const WarpJacobian& j,
+                                    FieldBlock& field) {
   for (int i = 0; i < count; ++i) {
     const float fx = field.fx[i], fy = field.fy[i], ax = field.ax[i], ay = field.ay[i];
     field.fx[i] = j.xx[i] * fx + j.yx[i] * fy;

@@ -1,0 +1,33 @@
+// Helpers for the loops over a block of points that GCC vectorises (noise, node kernels, blend
+// accumulation): clones for AVX-512, AVX2 and the baseline chosen at run time, and branch-free
+// selects on float bit patterns. Under the default -ftrapping-math GCC will not if-convert a
+// float `c ? a : b` whose operands need arithmetic (it keeps them behind branches, and the loop
+// stays scalar); a select on the bits vectorises. A select returns one of its operands bit for
+// bit and the project builds with -ffp-contract=off, so every clone computes the same numbers.
+#pragma once
+
+#include <bit>
+#include <cstdint>
+
+/// Compiles a function for AVX-512, AVX2 and the baseline; the loader picks one per machine.
+#define TERRAIN_SIMD_CLONES [[gnu::target_clones("avx512f", "avx2", "default")]]
+#define TERRAIN_SIMD_INLINE [[gnu::always_inline]] inline
+
+namespace terrain::simd {
+
+TERRAIN_SIMD_INLINE constexpr std::uint32_t bits_of(float x) {
+  return std::bit_cast<std::uint32_t>(x);
+}
+TERRAIN_SIMD_INLINE constexpr float from_bits(std::uint32_t b) {
+  return std::bit_cast<float>(b);
+}
+/// All ones where `condition` holds, else zero.
+TERRAIN_SIMD_INLINE constexpr std::uint32_t mask_of(bool condition) {
+  return 0u - static_cast<std::uint32_t>(condition);
+}
+/// mask ? a : b for a mask from mask_of.
+TERRAIN_SIMD_INLINE float select(std::uint32_t mask, float a, float b) {
+  return from_bits((bits_of(a) & mask) | (bits_of(b) & ~mask));
+}
+
+}  // namespace terrain::simd
