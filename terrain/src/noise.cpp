@@ -1216,10 +1216,15 @@ TERRAIN_NOISE_INLINE void fractal2_vectors(const Plan& plan, const float* x, con
 // One version per instruction set, picked when the program loads. The baseline runs the loops
 // GCC vectorises (fractal2_chunks); with AVX2 and AVX-512, gradient noise runs on explicit 8- and
 // 16-lane vectors, which fetch lattice gradients with a permute instead of a dozen bit operations.
-[[gnu::target("default")]] void fractal2_batch(const Plan& plan, const float* x, const float* y,
-                                               std::size_t n, float* value, float* dx, float* dy) {
+#if TERRAIN_MULTIVERSION
+[[gnu::target("default")]]
+#endif
+void fractal2_batch(const Plan& plan, const float* x, const float* y, std::size_t n, float* value,
+                    float* dx, float* dy) {
   fractal2_chunks(plan, x, y, n, value, dx, dy);
 }
+
+#if TERRAIN_MULTIVERSION
 
 [[gnu::target("avx2")]] void fractal2_batch(const Plan& plan, const float* x, const float* y,
                                             std::size_t n, float* value, float* dx, float* dy) {
@@ -1230,6 +1235,7 @@ TERRAIN_NOISE_INLINE void fractal2_vectors(const Plan& plan, const float* x, con
                                                std::size_t n, float* value, float* dx, float* dy) {
   fractal2_vectors<Vec16>(plan, x, y, n, value, dx, dy);
 }
+#endif
 
 template <Basis B>
 TERRAIN_NOISE_INLINE void chunk3(const Plan& plan, std::size_t count, const float* x,

@@ -9,8 +9,16 @@
 #include <bit>
 #include <cstdint>
 
+#if defined(__SANITIZE_THREAD__)
+// ThreadSanitizer instruments the ifunc resolvers that pick a version, and the loader runs them
+// before the sanitizer's runtime exists (a crash at start): one baseline version only.
+#define TERRAIN_SIMD_CLONES
+#define TERRAIN_MULTIVERSION 0
+#else
 /// Compiles a function for AVX-512, AVX2 and the baseline; the loader picks one per machine.
 #define TERRAIN_SIMD_CLONES [[gnu::target_clones("avx512f", "avx2", "default")]]
+#define TERRAIN_MULTIVERSION 1
+#endif
 #define TERRAIN_SIMD_INLINE [[gnu::always_inline]] inline
 
 namespace terrain::simd {
