@@ -36,6 +36,8 @@ struct HttpServer::State {
   asio::io_context io;
   asio::thread_pool generation;
   tcp::acceptor acceptor{io};
+  // The accept loop and the close at shutdown both run here: an acceptor is not thread-safe.
+  asio::strand<asio::io_context::executor_type> accept_strand{asio::make_strand(io)};
   std::atomic<bool> stopping{false};
   std::mutex sessions_mutex;
   // Streams of connections waiting for a request: closed at shutdown so they end at once.
@@ -300,7 +302,7 @@ terrain::Result<int> HttpServer::listen() {
 }
 
 void HttpServer::run() {
-  asio::co_spawn(state_->io, state_->accept_loop(), asio::detached);
+  asio::co_spawn(state_->accept_strand, state_->accept_loop(), asio::detached);
   const unsigned n = thread_count(state_->config.io_threads);
   std::vector<std::thread> threads;
   for (unsigned i = 1; i < n; ++i) threads.emplace_back([this] { state_->io.run(); });
@@ -310,10 +312,13 @@ void HttpServer::run() {
 }
 
 void HttpServer::stop() {
-  asio::post(state_->io, [s = state_.get()] {
+  asio::post(state_->accept_strand, [s = state_.get()] {
     s->stopping = true;
     boost::system::error_code ignored;
     s->acceptor.close(ignored);
+  });
+  asio::post(state_->io, [s = state_.get()] {
+    s->stopping = true;
     std::lock_guard lock(s->sessions_mutex);
     for (auto& weak : s->idle) {
       if (auto stream = weak.lock()) {
