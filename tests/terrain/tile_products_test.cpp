@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 
+#include "example_tile_sources.hpp"
 #include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/tile_products.hpp"
@@ -17,14 +18,10 @@ namespace terrain {
 namespace {
 
 namespace fs = std::filesystem;
-const fs::path kScenes = fs::path(TERRAIN_SOURCE_DIR) / "config" / "scenes";
+const fs::path& kScenes = testing::kExampleScenes;
 
 TileSource source_of(const std::string& name) {
-  Result<Scene> scene = load_scene_file((kScenes / (name + ".json")).string());
-  if (!scene) throw std::runtime_error(scene.error().message);
-  Result<TileSource> source = TileSource::from_scene(*scene);
-  if (!source) throw std::runtime_error(source.error().message);
-  return std::move(source).value();
+  return testing::example_source(name);
 }
 
 // One maker per scene for the whole test binary (compiling a scene is the slow part).

@@ -7,20 +7,14 @@
 #include <cmath>
 #include <filesystem>
 
+#include "example_tile_sources.hpp"
 #include "terrain/tile_source.hpp"
 
 namespace terrain {
 namespace {
 
-namespace fs = std::filesystem;
-const fs::path kScenes = fs::path(TERRAIN_SOURCE_DIR) / "config" / "scenes";
-
 TileSource source_of(const std::string& name) {
-  Result<Scene> scene = load_scene_file((kScenes / (name + ".json")).string());
-  if (!scene) throw std::runtime_error(scene.error().message);
-  Result<TileSource> source = TileSource::from_scene(*scene);
-  if (!source) throw std::runtime_error(source.error().message);
-  return std::move(source).value();
+  return testing::example_source(name);
 }
 
 HeightTile tile_or_die(TileGenerator& generator, const TileRequest& request) {
