@@ -9,9 +9,10 @@
 #include <bit>
 #include <cstdint>
 
-#if defined(__SANITIZE_THREAD__)
-// ThreadSanitizer instruments the ifunc resolvers that pick a version, and the loader runs them
-// before the sanitizer's runtime exists (a crash at start): one baseline version only.
+#if defined(__SANITIZE_THREAD__) || defined(__clang__)
+// One baseline version only: ThreadSanitizer instruments the ifunc resolvers that pick a version,
+// and the loader runs them before the sanitizer's runtime exists (a crash at start); clang (the
+// fuzz preset) multiversions differently from GCC, and fuzzing needs no speed.
 #define TERRAIN_SIMD_CLONES
 #define TERRAIN_MULTIVERSION 0
 #else
