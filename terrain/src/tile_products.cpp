@@ -10,10 +10,6 @@
 namespace terrain {
 namespace {
 
-bool is_power_of_two(int n) {
-  return n > 0 && (n & (n - 1)) == 0;
-}
-
 bool is_mesh(TileFormat format) {
   return format_info(format).mesh;
 }
@@ -88,26 +84,22 @@ double ProductMaker::default_max_error(TileScheme scheme, int z, int grid) const
   return 0.25 * ground_spacing(generator_.source(), scheme, z, grid - 1);
 }
 
+TileRequest ProductMaker::request_for(TileScheme scheme, const TileAddress& address,
+                                      TileFormat format, const ProductOptions& options) {
+  if (is_mesh(format)) return {scheme, address, SampleLayout::cell_corners, options.grid - 1, 0};
+  return {scheme, address, SampleLayout::cell_centres, options.size, options.border ? 1 : 0};
+}
+
 Status ProductMaker::validate(TileScheme scheme, const TileAddress& address, TileFormat format,
                               const ProductOptions& options) const {
-  if (Status s = validate_address(scheme, address); !s) return s;
-  if (is_mesh(format)) {
-    const int cells = options.grid - 1;
-    if (!is_power_of_two(cells) || cells < 2 || cells > 512) {
-      return Error{
-          "mesh grid " + std::to_string(options.grid) + " is not 2^k + 1 between 3 and 513",
-          "/grid"};
-    }
-    if (options.max_error && !(*options.max_error >= 0.0 && *options.max_error <= 1e6)) {
-      return Error{"max_error must be between 0 and 1e6 metres", "/max_error"};
-    }
-    if (format == TileFormat::quantized_mesh && scheme != TileScheme::geographic) {
-      return Error{"quantized-mesh tiles exist in the geographic scheme only (Cesium's)",
-                   "/scheme"};
-    }
-  } else if (!is_power_of_two(options.size) || options.size < 64 || options.size > 512) {
-    return Error{"tile size " + std::to_string(options.size) + " is not one of 64, 128, 256, 512",
-                 "/size"};
+  // Address and sizes are the sampler's to check; only what is particular to meshes is here.
+  if (Status s = validate_request(request_for(scheme, address, format, options)); !s) return s;
+  if (!is_mesh(format)) return Ok{};
+  if (options.max_error && !(*options.max_error >= 0.0 && *options.max_error <= 1e6)) {
+    return Error{"max_error must be between 0 and 1e6 metres", "/max_error"};
+  }
+  if (format == TileFormat::quantized_mesh && scheme != TileScheme::geographic) {
+    return Error{"quantized-mesh tiles exist in the geographic scheme only (Cesium's)", "/scheme"};
   }
   return Ok{};
 }
@@ -115,10 +107,7 @@ Status ProductMaker::validate(TileScheme scheme, const TileAddress& address, Til
 Result<HeightTile> ProductMaker::height_tile(TileScheme scheme, const TileAddress& address,
                                              TileFormat format, const ProductOptions& options) {
   if (Status s = validate(scheme, address, format, options); !s) return s.error();
-  TileRequest request{scheme, address, SampleLayout::cell_centres, options.size,
-                      options.border ? 1 : 0};
-  if (is_mesh(format)) request = {scheme, address, SampleLayout::cell_corners, options.grid - 1, 0};
-  return generator_.height_tile(request);
+  return generator_.height_tile(request_for(scheme, address, format, options));
 }
 
 TileMesh ProductMaker::triangulate(const HeightTile& tile, const ProductOptions& options) const {

@@ -343,9 +343,9 @@ bool TileGenerator::evaluate_on_backend(const HeightTile& tile,
     at.push_back(i);
   }
   std::vector<float> f(x.size()), fx(x.size()), fy(x.size());
-  const Status done = backend_->evaluate(*source_.terrain, x, y,
-                                         static_cast<float>(tile.ground_spacing), f.data(),
-                                         fx.data(), fy.data());
+  const Status done =
+      backend_->evaluate(*source_.terrain, x, y, static_cast<float>(tile.ground_spacing), f.data(),
+                         fx.data(), fy.data());
   if (!done) {
     last_backend_ = "cpu (fallback: " + done.error().message + ")";
     return false;
@@ -360,6 +360,12 @@ bool TileGenerator::evaluate_on_backend(const HeightTile& tile,
 }
 
 Result<HeightTile> TileGenerator::height_tile(const TileRequest& request) {
+  std::vector<std::uint8_t> mapped;
+  return height_tile(request, mapped);
+}
+
+Result<HeightTile> TileGenerator::height_tile(const TileRequest& request,
+                                              std::vector<std::uint8_t>& mapped) {
   if (Status valid = validate_request(request); !valid) return valid.error();
   HeightTile tile;
   tile.scheme = request.scheme;
@@ -386,7 +392,6 @@ Result<HeightTile> TileGenerator::height_tile(const TileRequest& request) {
   }
   tile.ground_spacing = ground_spacing(source_, request.scheme, request.address.z, request.cells);
 
-  std::vector<std::uint8_t> mapped;
   place_samples(tile, mapped);
   const auto count = tile.scene_x.size();
   tile.elevation.assign(count, source_.base_elevation);
@@ -409,15 +414,13 @@ Result<std::vector<std::uint8_t>> TileGenerator::water_mask(TileScheme scheme,
                                                             const TileAddress& address) {
   if (!water_) return std::vector<std::uint8_t>{0};
   TileRequest request{scheme, address, SampleLayout::cell_centres, 256, 0};
-  Result<HeightTile> terrain = height_tile(request);
+  std::vector<std::uint8_t> mapped;  // the samples' positions are placed once, for both trees
+  Result<HeightTile> terrain = height_tile(request, mapped);
   if (!terrain) return terrain.error();
   const HeightTile& tile = *terrain;
-  std::vector<std::uint8_t> mapped;
-  HeightTile positions = tile;
-  place_samples(positions, mapped);
   std::vector<float> surface(tile.elevation.size(), -1e30f);
   std::vector<float> weight(tile.elevation.size(), 0.0f);
-  evaluate(*water_, positions, mapped, static_cast<float>(tile.ground_spacing), surface, nullptr,
+  evaluate(*water_, tile, mapped, static_cast<float>(tile.ground_spacing), surface, nullptr,
            nullptr, &weight);
   std::vector<std::uint8_t> mask(tile.elevation.size());
   bool any_land = false, any_water = false;

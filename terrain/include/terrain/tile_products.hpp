@@ -104,6 +104,8 @@ class ProductMaker {
   nlohmann::json layer_json(const LayerJsonOptions& base) const;
 
  private:
+  static TileRequest request_for(TileScheme scheme, const TileAddress& address, TileFormat format,
+                                 const ProductOptions& options);
   Status validate(TileScheme scheme, const TileAddress& address, TileFormat format,
                   const ProductOptions& options) const;
   std::vector<std::vector<AvailabilityRectangle>> availability(int from_z, int to_z,

@@ -136,6 +136,8 @@ class TileGenerator {
   Result<std::vector<std::uint8_t>> water_mask(TileScheme scheme, const TileAddress& address);
 
  private:
+  // height_tile, also giving which samples the frame maps (0 where it does not reach).
+  Result<HeightTile> height_tile(const TileRequest& request, std::vector<std::uint8_t>& mapped);
   // Scene positions of every sample; `mapped` is 0 where the frame does not reach.
   void place_samples(HeightTile& tile, std::vector<std::uint8_t>& mapped) const;
   void evaluate(Evaluator& evaluator, const HeightTile& tile,
