@@ -34,7 +34,7 @@ std::string quote(std::string_view s) {
   return "\"" + std::string(s) + "\"";
 }
 
-Response make_response(const Request& request, http::status status, std::string body,
+Response make_response(const Request& request, http::status status, Payload body,
                        std::string_view media_type) {
   Response r{status, request.version()};
   r.set(http::field::server, "terrain-server");
@@ -203,7 +203,7 @@ bool etag_matches(const Request& request, const std::string& etag) {
   return false;
 }
 
-std::string product_etag(const std::string& body) {
+std::string product_etag(std::string_view body) {
   return quote(terrain::sha256_hex(body).substr(0, 32));
 }
 
@@ -248,18 +248,23 @@ App::App(Config config, std::unique_ptr<Store> store)
   }
 }
 
-std::string App::route_label(const Request& request) {
+std::string_view App::route_label(const Request& request) {
   const std::string_view t(request.target().data(), request.target().size());
   const std::string_view path = t.substr(0, t.find('?'));
-  if (path == "/healthz" || path == "/metrics") return std::string(path.substr(1));
+  if (path == "/healthz") return "healthz";
+  if (path == "/metrics") return "metrics";
   if (!path.starts_with("/api/v1/")) return path == "/" ? "client" : "other";
-  for (const char* kind :
-       {"/tiles/", "/mesh/", "/versions", "/program", "/sample", "/tilejson.json", "/layer.json"}) {
-    if (path.find(kind) != std::string_view::npos) {
-      std::string label(kind);
-      label.erase(std::remove(label.begin(), label.end(), '/'), label.end());
-      return label;
-    }
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 7> kinds = {{
+      {"/tiles/", "tiles"},
+      {"/mesh/", "mesh"},
+      {"/versions", "versions"},
+      {"/program", "program"},
+      {"/sample", "sample"},
+      {"/tilejson.json", "tilejson.json"},
+      {"/layer.json", "layer.json"},
+  }};
+  for (const auto& [part, label] : kinds) {
+    if (path.find(part) != std::string_view::npos) return label;
   }
   if (path.starts_with("/api/v1/images")) return "images";
   return path == "/api/v1/scenes" ? "scenes" : "scene";
@@ -420,7 +425,7 @@ Outcome App::route(const Request& request, const Target& target) {
         r.set(http::field::etag, file->etag);
         return r;
       }
-      Response r = make_response(request, http::status::ok, file->body, file->media_type);
+      Response r = make_response(request, http::status::ok, Payload(file->body), file->media_type);
       r.set(http::field::etag, file->etag);
       r.set(http::field::cache_control, "public, max-age=60");
       return r;
@@ -486,6 +491,7 @@ terrain::Result<LoadedVersion, Response> App::load_version(const Request& reques
     if (it != loaded_.end()) {
       LoadedVersion loaded = it->second;
       loaded.version = version;
+      loaded.version.canonical_json.clear();  // the parsed scene holds it
       return loaded;
     }
   }
@@ -505,7 +511,6 @@ terrain::Result<LoadedVersion, Response> App::load_version(const Request& reques
   std::lock_guard lock(versions_mutex_);
   if (loaded_.size() >= kLoadedVersions) loaded_.clear();
   loaded_.emplace(version.hash, loaded);
-  loaded.version = version;
   return loaded;
 }
 
@@ -958,13 +963,18 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
                        " (samples x program size), above the limit of " +
                        std::to_string(static_cast<long long>(config_.max_cost)));
   }
-  std::ostringstream key;
-  key << loaded.version.hash << '|' << terrain::scheme_name(*scheme) << '|' << *z << '/' << *x
-      << '/' << *y << '|' << extension << '|' << target.get("encoding") << '|' << options.size
-      << '|' << border << '|' << options.grid << '|'
-      << (options.max_error ? std::to_string(*options.max_error) : "auto") << '|'
-      << options.octvertexnormals << options.watermask << options.metadata;
-  const std::string cache_key = key.str();
+  std::string cache_key = loaded.version.hash;
+  for (const std::string& part :
+       {std::string(terrain::scheme_name(*scheme)),
+        std::to_string(*z) + '/' + std::to_string(*x) + '/' + std::to_string(*y),
+        std::string(extension), target.get("encoding"), std::to_string(options.size),
+        std::to_string(border), std::to_string(options.grid),
+        options.max_error ? std::to_string(*options.max_error) : "auto",
+        std::string{char('0' + options.octvertexnormals), char('0' + options.watermask),
+                    char('0' + options.metadata)}}) {
+    cache_key += '|';
+    cache_key += part;
+  }
   const bool gzip_ok = accepts_gzip(request);
   const std::string if_none_match = [&] {
     const auto it = request.find(http::field::if_none_match);
@@ -975,7 +985,8 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   const auto gray16 = terrain::gray16_encoding_for(loaded.source->elevation_range);
 
   // The response for a product, fresh or cached.
-  auto respond = [=](const CachedProduct& p) {
+  auto respond = [=](const std::shared_ptr<const CachedProduct>& product) {
+    const CachedProduct& p = *product;
     Request shadow{http::verb::get, "/", version};
     if (!if_none_match.empty()) shadow.set(http::field::if_none_match, if_none_match);
     shadow.keep_alive(keep_alive);
@@ -1002,21 +1013,21 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
           std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(p.body.data()),
                                         p.body.size()),
           std::size_t{1} << 28);
-      r.body().assign(raw->begin(), raw->end());
+      r.body() = std::string(raw->begin(), raw->end());
     } else {
       if (!p.content_encoding.empty()) r.set(http::field::content_encoding, p.content_encoding);
-      r.body() = p.body;
+      r.body() = Payload(std::shared_ptr<const std::string>(product, &p.body));
     }
     if (!p.backend.empty()) r.set("X-Terrain-Backend", p.backend);
     r.prepare_payload();  // HEAD: the session drops the body and keeps this length
     return r;
   };
 
-  if (auto hit = cache_.find(cache_key)) return respond(*hit);
+  if (auto hit = cache_.find(cache_key)) return respond(hit);
   if (disk_cache_) {
     if (auto hit = disk_cache_->find(cache_key)) {
       cache_.insert(cache_key, hit);
-      return respond(*hit);
+      return respond(hit);
     }
   }
 
@@ -1058,7 +1069,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     cached->backend = product->backend;
     cache_.insert(cache_key, cached);
     if (disk_cache_) disk_cache_->insert(cache_key, *cached);
-    return respond(*cached);
+    return respond(cached);
   };
   return deferred;
 }

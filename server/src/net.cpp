@@ -11,7 +11,6 @@
 #include <chrono>
 #include <iostream>
 #include <list>
-#include <mutex>
 #include <thread>
 
 namespace server {
@@ -23,6 +22,27 @@ using tcp = asio::ip::tcp;
 using asio::awaitable;
 using asio::use_awaitable;
 
+// The status line and header fields of a response as Beast's serializer writes them. Bodies are
+// never chunked here: every response carries its Content-Length (or has no body).
+std::string wire_header(const Response& response) {
+  BOOST_ASSERT(!response.chunked());
+  std::string out;
+  out.reserve(384);
+  out += response.version() == 10 ? "HTTP/1.0 " : "HTTP/1.1 ";
+  out += std::to_string(response.result_int());
+  out += ' ';
+  out.append(response.reason().data(), response.reason().size());
+  out += "\r\n";
+  for (const auto& field : response) {
+    out.append(field.name_string().data(), field.name_string().size());
+    out += ": ";
+    out.append(field.value().data(), field.value().size());
+    out += "\r\n";
+  }
+  out += "\r\n";
+  return out;
+}
+
 unsigned thread_count(int configured) {
   return configured > 0 ? static_cast<unsigned>(configured)
                         : std::max(1u, std::thread::hardware_concurrency());
@@ -31,93 +51,123 @@ unsigned thread_count(int configured) {
 }  // namespace
 
 struct HttpServer::State {
+  // One io_context per I/O thread. A connection lives on one of them for its whole life, so its
+  // session, its deadlines and a shutdown's close run on one thread: no strands, no locks, and
+  // each context's scheduler and reactor are touched by their own thread alone.
+  struct Worker {
+    asio::io_context io{1};
+    asio::executor_work_guard<asio::io_context::executor_type> keep_running{io.get_executor()};
+    // Streams of connections waiting for a request: closed at shutdown so they end at once.
+    std::list<std::weak_ptr<tcp::socket>> idle;
+  };
+
   App& app;
   Config config;
-  asio::io_context io;
+  std::vector<std::unique_ptr<Worker>> workers;
   asio::thread_pool generation;
-  tcp::acceptor acceptor{io};
-  // The accept loop and the close at shutdown both run here: an acceptor is not thread-safe.
-  asio::strand<asio::io_context::executor_type> accept_strand{asio::make_strand(io)};
+  tcp::acceptor acceptor;  // on workers[0], which runs the accept loop and closes it
   std::atomic<bool> stopping{false};
-  std::mutex sessions_mutex;
-  // Streams of connections waiting for a request: closed at shutdown so they end at once.
-  std::list<std::weak_ptr<beast::tcp_stream>> idle;
+  std::size_t next_worker = 0;
 
   State(App& a, const Config& c)
-      : app(a), config(c), generation(thread_count(c.generation_threads)) {}
+      : app(a),
+        config(c),
+        workers(make_workers(thread_count(c.io_threads))),
+        generation(thread_count(c.generation_threads)),
+        acceptor(workers[0]->io) {}
+
+  static std::vector<std::unique_ptr<Worker>> make_workers(unsigned n) {
+    std::vector<std::unique_ptr<Worker>> made;
+    for (unsigned i = 0; i < n; ++i) made.push_back(std::make_unique<Worker>());
+    return made;
+  }
 
   awaitable<void> accept_loop() {
     while (!stopping) {
       boost::system::error_code ec;
-      // Each connection lives on a strand of its own: its session, its read deadlines and a
-      // shutdown's close never run concurrently, whichever I/O thread picks them up.
-      tcp::socket socket = co_await acceptor.async_accept(asio::make_strand(io),
-                                                          asio::redirect_error(use_awaitable, ec));
+      Worker& worker = *workers[next_worker];
+      next_worker = (next_worker + 1) % workers.size();
+      tcp::socket socket =
+          co_await acceptor.async_accept(worker.io, asio::redirect_error(use_awaitable, ec));
       if (ec) {
         if (stopping || ec == asio::error::operation_aborted) break;
         continue;  // e.g. too many open files: keep serving the others
       }
-      const auto executor = socket.get_executor();
-      asio::co_spawn(executor, session(std::move(socket)), asio::detached);
+      asio::co_spawn(worker.io, session(std::move(socket), worker), asio::detached);
     }
   }
 
-  awaitable<void> write(beast::tcp_stream& stream, Response response) {
-    stream.expires_after(std::chrono::milliseconds(config.request_timeout_ms));
-    boost::system::error_code ec;
-    co_await http::async_write(stream, response, asio::redirect_error(use_awaitable, ec));
-  }
-
-  // A deadline for reading a request. tcp_stream's own timeout closes the socket, which would
-  // leave no way to answer 408; this one shuts the receiving side instead (the pending read ends,
-  // and so does any read started after it), so the answer can still be sent. Its handler runs on
-  // the connection's strand, like the session, and does nothing once the deadline is gone.
-  class ReadDeadline {
+  // Deadlines for a connection, one timer re-armed for each read and write. When a read's
+  // deadline passes, the receiving side is shut (the pending read ends, and so does any read
+  // started after it) so that a 408 can still be sent; when a write's passes, the socket is
+  // closed. The handler runs on the connection's thread, like the session, and ignores a wait
+  // that a later arm or disarm has superseded.
+  class Deadline {
    public:
-    ReadDeadline(const std::shared_ptr<beast::tcp_stream>& stream, int ms)
-        : timer_(stream->get_executor()), state_(std::make_shared<State>()) {
-      timer_.expires_after(std::chrono::milliseconds(ms));
-      timer_.async_wait([state = state_, weak = std::weak_ptr<beast::tcp_stream>(stream)](
-                            const boost::system::error_code& ec) {
-        if (ec || !state->active) return;
-        state->expired = true;
-        if (auto s = weak.lock()) {
-          boost::system::error_code ignored;
-          s->socket().shutdown(tcp::socket::shutdown_receive, ignored);
-        }
-      });
+    enum class Expiry { shut_receive, close };
+
+    explicit Deadline(const std::shared_ptr<tcp::socket>& socket)
+        : timer_(socket->get_executor()), state_(std::make_shared<Shared>()), socket_(socket) {}
+    ~Deadline() { timer_.cancel(); }
+    Deadline(const Deadline&) = delete;
+    Deadline& operator=(const Deadline&) = delete;
+
+    void arm(int ms, Expiry expiry) {
+      const std::uint64_t armed = ++state_->generation;
+      state_->expired = false;
+      timer_.expires_after(std::chrono::milliseconds(ms));  // supersedes any pending wait
+      timer_.async_wait(
+          [state = state_, armed, expiry, weak = socket_](const boost::system::error_code& ec) {
+            if (ec || state->generation != armed) return;
+            state->expired = true;
+            if (auto s = weak.lock()) {
+              boost::system::error_code ignored;
+              if (expiry == Expiry::close) {
+                s->close(ignored);
+              } else {
+                s->shutdown(tcp::socket::shutdown_receive, ignored);
+              }
+            }
+          });
     }
-    ~ReadDeadline() {
-      state_->active = false;
-      timer_.cancel();
-    }
-    ReadDeadline(const ReadDeadline&) = delete;
-    ReadDeadline& operator=(const ReadDeadline&) = delete;
+    /// Ends the current deadline; the timer's wait lapses harmlessly (re-arming cancels it).
+    void disarm() { ++state_->generation; }
     bool expired() const { return state_->expired; }
 
    private:
-    struct State {
-      bool active = true;
+    struct Shared {
+      std::uint64_t generation = 0;
       bool expired = false;
     };
     asio::steady_timer timer_;
-    std::shared_ptr<State> state_;
+    std::shared_ptr<Shared> state_;
+    std::weak_ptr<tcp::socket> socket_;
   };
 
-  awaitable<void> session(tcp::socket socket) {
-    auto stream = std::make_shared<beast::tcp_stream>(std::move(socket));
+  // Writes a response: the status line and fields, then the body, in one gather write. The
+  // header bytes are what Beast's serializer would write; a shared body (a cached tile) goes
+  // out without a copy.
+  awaitable<void> write(tcp::socket& socket, Deadline& deadline, const Response& response) {
+    const std::string header = wire_header(response);
+    const std::array<asio::const_buffer, 2> buffers = {
+        asio::buffer(header), asio::buffer(response.body().data(), response.body().size())};
+    deadline.arm(config.request_timeout_ms, Deadline::Expiry::close);
+    boost::system::error_code ec;
+    co_await asio::async_write(socket, buffers, asio::redirect_error(use_awaitable, ec));
+    deadline.disarm();
+  }
+
+  awaitable<void> session(tcp::socket accepted, Worker& worker) {
+    auto stream = std::make_shared<tcp::socket>(std::move(accepted));
     beast::flat_buffer buffer;
-    std::list<std::weak_ptr<beast::tcp_stream>>::iterator registration;
-    {
-      std::lock_guard lock(sessions_mutex);
-      idle.push_front(stream);
-      registration = idle.begin();
-    }
-    auto unregister = [&] {
-      std::lock_guard lock(sessions_mutex);
-      if (registration != idle.end()) idle.erase(registration);
-      registration = idle.end();
+    Deadline deadline(stream);
+    // Only this worker's thread touches its idle list.
+    auto registration = worker.idle.end();
+    auto set_idle = [&](bool is_idle) {
+      if (registration != worker.idle.end()) worker.idle.erase(registration);
+      registration = is_idle ? worker.idle.insert(worker.idle.begin(), stream) : worker.idle.end();
     };
+    set_idle(true);
     bool first = true;
     while (!stopping) {
       http::request_parser<http::empty_body> header_parser;
@@ -125,42 +175,38 @@ struct HttpServer::State {
       // The route's body limit is checked below, once the target is known; the parser's default
       // (1 MiB) would refuse larger declared bodies as malformed before that.
       header_parser.body_limit(boost::none);
-      stream->expires_never();
       boost::system::error_code ec;
-      bool header_timed_out = false;
-      {
-        const ReadDeadline deadline(stream,
-                                    first ? config.header_timeout_ms : config.idle_timeout_ms);
-        co_await http::async_read_header(*stream, buffer, header_parser,
-                                         asio::redirect_error(use_awaitable, ec));
-        header_timed_out = deadline.expired();
-      }
+      deadline.arm(first ? config.header_timeout_ms : config.idle_timeout_ms,
+                   Deadline::Expiry::shut_receive);
+      co_await http::async_read_header(*stream, buffer, header_parser,
+                                       asio::redirect_error(use_awaitable, ec));
+      const bool header_timed_out = deadline.expired();
+      deadline.disarm();
       const auto started = std::chrono::steady_clock::now();
       if (ec) {
         Request bare{http::verb::get, "/", 11};
         bare.keep_alive(false);
         if (header_timed_out && !stopping && buffer.size() > 0) {
-          co_await write(*stream, problem(bare, http::status::request_timeout, "Request timeout",
-                                          "the request header did not arrive in time"));
+          co_await write(*stream, deadline,
+                         problem(bare, http::status::request_timeout, "Request timeout",
+                                 "the request header did not arrive in time"));
         } else if (ec == http::error::header_limit) {
-          co_await write(*stream, problem(bare, http::status::request_header_fields_too_large,
-                                          "Header too large",
-                                          "request headers are limited to " +
-                                              std::to_string(config.header_limit) + " bytes"));
+          co_await write(
+              *stream, deadline,
+              problem(bare, http::status::request_header_fields_too_large, "Header too large",
+                      "request headers are limited to " + std::to_string(config.header_limit) +
+                          " bytes"));
         } else if (!header_timed_out && ec != http::error::end_of_stream &&
                    ec != asio::error::operation_aborted && ec != asio::error::eof &&
                    ec != asio::error::connection_reset && ec != asio::error::bad_descriptor) {
           co_await write(
-              *stream, problem(bare, http::status::bad_request, "Malformed request", ec.message()));
+              *stream, deadline,
+              problem(bare, http::status::bad_request, "Malformed request", ec.message()));
         }
         break;
       }
       first = false;
-      {
-        std::lock_guard lock(sessions_mutex);  // busy: not closed by a shutdown
-        if (registration != idle.end()) idle.erase(registration);
-        registration = idle.end();
-      }
+      set_idle(false);  // busy: not closed by a shutdown
       // Body limits depend on the route; refuse before reading a byte of an oversized body.
       const auto& header = header_parser.get();
       const std::string_view target(header.target().data(), header.target().size());
@@ -170,36 +216,39 @@ struct HttpServer::State {
       if (declared && static_cast<std::int64_t>(*declared) > limit) {
         Request bare{header.method(), header.target(), header.version()};
         bare.keep_alive(false);
-        co_await write(*stream,
+        co_await write(*stream, deadline,
                        problem(bare, http::status::payload_too_large, "Body too large",
                                "this route accepts at most " + std::to_string(limit) + " bytes"));
         break;
       }
       http::request_parser<http::string_body> parser(std::move(header_parser));
       parser.body_limit(static_cast<std::uint64_t>(limit));
-      bool body_timed_out = false;
-      {
-        const ReadDeadline deadline(stream, config.body_timeout_ms);
+      if (!parser.is_done()) {  // most requests (GETs) have no body and need no second read
+        deadline.arm(config.body_timeout_ms, Deadline::Expiry::shut_receive);
         co_await http::async_read(*stream, buffer, parser, asio::redirect_error(use_awaitable, ec));
-        body_timed_out = deadline.expired();
-      }
-      if (ec) {
-        Request bare{http::verb::get, "/", 11};
-        bare.keep_alive(false);
-        if (ec == http::error::body_limit) {
-          co_await write(*stream,
-                         problem(bare, http::status::payload_too_large, "Body too large",
-                                 "this route accepts at most " + std::to_string(limit) + " bytes"));
-        } else if (body_timed_out) {
-          co_await write(*stream, problem(bare, http::status::request_timeout, "Request timeout",
-                                          "the request body did not arrive in time"));
-        } else if (ec.category() == http::make_error_code(http::error::bad_target).category() &&
-                   ec != http::error::partial_message && ec != http::error::end_of_stream) {
-          // A malformed body (bad chunk framing, say); a client that went away gets nothing.
-          co_await write(
-              *stream, problem(bare, http::status::bad_request, "Malformed request", ec.message()));
+        const bool body_timed_out = deadline.expired();
+        deadline.disarm();
+        if (ec) {
+          Request bare{http::verb::get, "/", 11};
+          bare.keep_alive(false);
+          if (ec == http::error::body_limit) {
+            co_await write(
+                *stream, deadline,
+                problem(bare, http::status::payload_too_large, "Body too large",
+                        "this route accepts at most " + std::to_string(limit) + " bytes"));
+          } else if (body_timed_out) {
+            co_await write(*stream, deadline,
+                           problem(bare, http::status::request_timeout, "Request timeout",
+                                   "the request body did not arrive in time"));
+          } else if (ec.category() == http::make_error_code(http::error::bad_target).category() &&
+                     ec != http::error::partial_message && ec != http::error::end_of_stream) {
+            // A malformed body (bad chunk framing, say); a client that went away gets nothing.
+            co_await write(
+                *stream, deadline,
+                problem(bare, http::status::bad_request, "Malformed request", ec.message()));
+          }
+          break;
         }
-        break;
       }
       Request request = parser.release();
       Outcome outcome = app.handle(request);
@@ -212,9 +261,7 @@ struct HttpServer::State {
                              "the generation queue is full; retry shortly");
           response.set(http::field::retry_after, "1");
         } else {
-          // Work on the generation pool; this coroutine resumes on the connection's strand.
-          // (Posting the coroutine itself to the pool would resume it on its own executor,
-          // the I/O threads, and generate there.)
+          // Work on the generation pool; this coroutine resumes on the connection's context.
           std::exception_ptr failure;
           try {
             response = co_await asio::co_spawn(
@@ -240,6 +287,10 @@ struct HttpServer::State {
       } else {
         response = std::move(std::get<Response>(outcome));
       }
+      const auto code = response.result_int();
+      if (!response.has_content_length() && code != 204 && code != 304 && code >= 200) {
+        response.content_length(response.body().size());  // the framing a keep-alive client needs
+      }
       if (request.method() == http::verb::head) {
         const auto length = response.body().size();
         response.body().clear();
@@ -248,30 +299,26 @@ struct HttpServer::State {
       const bool keep_alive = response.keep_alive() && !stopping;
       response.keep_alive(keep_alive);
       const int status = static_cast<int>(response.result_int());
-      co_await write(*stream, std::move(response));
+      co_await write(*stream, deadline, response);
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-      const std::string route = App::route_label(request);
+      const std::string_view route = App::route_label(request);
       app.metrics().request(route, status, seconds);
       if (log_enabled(LogLevel::info)) {
         log(LogLevel::info, "request",
             {{"method", std::string(request.method_string())},
              {"target", std::string(request.target())},
-             {"route", route},
+             {"route", std::string(route)},
              {"status", status},
              {"ms", std::round(seconds * 1e5) / 100.0}});
       }
       if (!keep_alive) break;
-      {
-        std::lock_guard lock(sessions_mutex);
-        idle.push_front(stream);
-        registration = idle.begin();
-      }
+      set_idle(true);
     }
-    unregister();
+    set_idle(false);
     boost::system::error_code ignored;
-    stream->socket().shutdown(tcp::socket::shutdown_send, ignored);
-    stream->close();
+    stream->shutdown(tcp::socket::shutdown_send, ignored);
+    stream->close(ignored);
   }
 };
 
@@ -302,34 +349,36 @@ terrain::Result<int> HttpServer::listen() {
 }
 
 void HttpServer::run() {
-  asio::co_spawn(state_->accept_strand, state_->accept_loop(), asio::detached);
-  const unsigned n = thread_count(state_->config.io_threads);
+  auto& workers = state_->workers;
+  asio::co_spawn(workers[0]->io, state_->accept_loop(), asio::detached);
   std::vector<std::thread> threads;
-  for (unsigned i = 1; i < n; ++i) threads.emplace_back([this] { state_->io.run(); });
-  state_->io.run();
+  for (std::size_t i = 1; i < workers.size(); ++i) {
+    threads.emplace_back([&worker = *workers[i]] { worker.io.run(); });
+  }
+  workers[0]->io.run();
   for (std::thread& t : threads) t.join();
   state_->generation.join();
 }
 
 void HttpServer::stop() {
-  asio::post(state_->accept_strand, [s = state_.get()] {
-    s->stopping = true;
+  State* s = state_.get();
+  s->stopping = true;
+  asio::post(s->workers[0]->io, [s] {
     boost::system::error_code ignored;
     s->acceptor.close(ignored);
   });
-  asio::post(state_->io, [s = state_.get()] {
-    s->stopping = true;
-    std::lock_guard lock(s->sessions_mutex);
-    for (auto& weak : s->idle) {
-      if (auto stream = weak.lock()) {
-        // On the connection's strand: the session may be running on another thread.
-        asio::post(stream->get_executor(), [stream] {
-          boost::system::error_code ignored_too;
-          stream->socket().close(ignored_too);
-        });
+  for (auto& worker : s->workers) {
+    // On the worker's own thread: its idle list and streams are touched there alone.
+    asio::post(worker->io, [w = worker.get()] {
+      for (auto& weak : w->idle) {
+        if (auto stream = weak.lock()) {
+          boost::system::error_code ignored;
+          stream->close(ignored);
+        }
       }
-    }
-  });
+      w->keep_running.reset();  // run() returns once the sessions in flight have finished
+    });
+  }
 }
 
 }  // namespace server

@@ -41,11 +41,13 @@ StaticFiles StaticFiles::load(const std::string& directory) {
     if (ec) continue;
     std::ifstream in(it->path(), std::ios::binary);
     StaticFile file;
-    file.body.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    total += file.body.size();
+    auto body = std::make_shared<const std::string>(std::istreambuf_iterator<char>(in),
+                                                    std::istreambuf_iterator<char>());
+    total += body->size();
     if (total > (std::size_t{64} << 20)) break;
     file.media_type = media_type_of(it->path().extension().string());
-    file.etag = "\"" + terrain::sha256_hex(file.body).substr(0, 32) + "\"";
+    file.etag = "\"" + terrain::sha256_hex(*body).substr(0, 32) + "\"";
+    file.body = std::move(body);
     files.files_.emplace("/" + relative.generic_string(), std::move(file));
   }
   return files;

@@ -50,7 +50,7 @@ TEST_F(AppTest, OpenApiDocumentIsValidJsonServedAsIs) {
   EXPECT_EQ(doc["openapi"], "3.1.0");
   const Response r = get("/api/v1/openapi.json");
   EXPECT_EQ(r.result(), http::status::ok);
-  EXPECT_EQ(nlohmann::json::parse(r.body()), doc);
+  EXPECT_EQ(nlohmann::json::parse(r.body().view()), doc);
 }
 
 // Every documented GET path, with its parameters filled in, reaches a handler (no "no route").
@@ -73,7 +73,7 @@ TEST_F(AppTest, EveryDocumentedPathIsRouted) {
     if (target.ends_with("/sample")) target += "?x=1&y=2";
     if (target.ends_with("/render.png")) target += "?width=64&height=48";
     const Response r = get(target);
-    EXPECT_EQ(r.result(), http::status::ok) << target << ": " << r.body();
+    EXPECT_EQ(r.result(), http::status::ok) << target << ": " << r.body().view();
     ++checked;
   }
   EXPECT_GE(checked, 14);
@@ -83,7 +83,7 @@ TEST_F(AppTest, GeneratedTilesAreCachedAndIdentical) {
   const Response first = get("/api/v1/scenes/craters@1/tiles/1/1/0.png?scheme=local");
   const Response second = get("/api/v1/scenes/craters@1/tiles/1/1/0.png?scheme=local");
   ASSERT_EQ(first.result(), http::status::ok);
-  EXPECT_EQ(first.body(), second.body());
+  EXPECT_EQ(first.body().view(), second.body().view());
   EXPECT_EQ(first[http::field::etag], second[http::field::etag]);
   EXPECT_GE(app_->cache().hits(), 1);
 }

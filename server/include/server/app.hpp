@@ -44,7 +44,7 @@ class App {
   Metrics& metrics() { return metrics_; }
   ProductCache& cache() { return cache_; }
   /// The route label a request counts under in /metrics.
-  static std::string route_label(const Request& request);
+  static std::string_view route_label(const Request& request);
   /// Adds the CORS headers the configuration allows for this request's Origin.
   void add_cors(const Request& request, Response& response) const;
 

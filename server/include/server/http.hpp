@@ -4,6 +4,7 @@
 #include <boost/beast/http.hpp>
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <variant>
@@ -11,8 +12,56 @@
 namespace server {
 
 namespace http = boost::beast::http;
+
+/// The bytes of a response body: text made for this response, or an immutable buffer shared with
+/// a cache (a tile, a static file), which is then sent without being copied.
+class Payload {
+ public:
+  Payload() = default;
+  // Implicit, so that `r.body() = text` reads as it would for a string body.
+  Payload(std::string text)  // NOLINT(google-explicit-constructor)
+      : bytes_(text.empty() ? nullptr : std::make_shared<const std::string>(std::move(text))) {}
+  Payload(const char* text) : Payload(std::string(text)) {}  // NOLINT(google-explicit-constructor)
+  explicit Payload(std::shared_ptr<const std::string> shared) : bytes_(std::move(shared)) {}
+
+  std::string_view view() const { return bytes_ ? std::string_view(*bytes_) : std::string_view(); }
+  operator std::string_view() const { return view(); }  // NOLINT: a payload is its bytes
+  const char* data() const { return view().data(); }
+  std::size_t size() const { return bytes_ ? bytes_->size() : 0; }
+  bool empty() const { return size() == 0; }
+  void clear() { bytes_.reset(); }
+
+ private:
+  std::shared_ptr<const std::string> bytes_;
+};
+
+/// A Beast body over a Payload (responses only: requests are read into strings).
+struct PayloadBody {
+  using value_type = Payload;
+
+  static std::uint64_t size(const value_type& body) { return body.size(); }
+
+  class writer {
+   public:
+    using const_buffers_type = boost::asio::const_buffer;
+
+    template <bool isRequest, class Fields>
+    writer(const http::header<isRequest, Fields>&, const value_type& body) : body_(body) {}
+
+    void init(boost::beast::error_code& ec) { ec = {}; }
+
+    boost::optional<std::pair<const_buffers_type, bool>> get(boost::beast::error_code& ec) {
+      ec = {};
+      return {{const_buffers_type(body_.data(), body_.size()), false}};
+    }
+
+   private:
+    const value_type& body_;
+  };
+};
+
 using Request = http::request<http::string_body>;
-using Response = http::response<http::string_body>;
+using Response = http::response<PayloadBody>;
 
 /// An RFC 9457 problem details response (application/problem+json) naming the offending field
 /// by JSON pointer when there is one.

@@ -3,12 +3,13 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <string>
 
 namespace server {
 
 struct StaticFile {
-  std::string body;
+  std::shared_ptr<const std::string> body;  ///< shared with the responses that send it
   std::string media_type;
   std::string etag;
 };
