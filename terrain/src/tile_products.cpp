@@ -111,10 +111,9 @@ Result<HeightTile> ProductMaker::height_tile(TileScheme scheme, const TileAddres
 }
 
 TileMesh ProductMaker::triangulate(const HeightTile& tile, const ProductOptions& options) const {
-  if (options.regular) return triangulate_grid(tile.width);
-  const double max_error =
-      options.max_error.value_or(default_max_error(tile.scheme, tile.address.z, tile.width));
-  return triangulate_rtin(tile.elevation.data(), tile.width, static_cast<float>(max_error));
+  // The tile's ground spacing is ground_spacing(source, scheme, z, grid − 1): the same default
+  // error allowance as default_max_error.
+  return triangulate_for(tile, options);
 }
 
 std::vector<std::vector<AvailabilityRectangle>> ProductMaker::availability(
@@ -149,14 +148,17 @@ nlohmann::json ProductMaker::layer_json(const LayerJsonOptions& base) const {
   return quantized_mesh_layer_json(options);
 }
 
-Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address, TileFormat format,
-                                   const ProductOptions& options) {
-  Result<HeightTile> generated = height_tile(scheme, address, format, options);
-  if (!generated) return generated.error();
-  const HeightTile& tile = *generated;
+TileMesh triangulate_for(const HeightTile& tile, const ProductOptions& options) {
+  if (options.regular) return triangulate_grid(tile.width);
+  const double max_error = options.max_error.value_or(0.25 * tile.ground_spacing);
+  return triangulate_rtin(tile.elevation.data(), tile.width, static_cast<float>(max_error));
+}
+
+Result<Product> encode_product(const HeightTile& tile, TileFormat format,
+                               const ProductOptions& options, const ProductConstants& constants,
+                               const Georeference& georeference, MeshExtras extras) {
   Product product;
   product.media_type = std::string(format_info(format).media_type);
-  product.backend = generator_.last_backend();
   Result<std::vector<std::uint8_t>> bytes = std::vector<std::uint8_t>{};
   switch (format) {
     case TileFormat::terrain_rgb:
@@ -166,7 +168,7 @@ Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address
       bytes = encode_terrarium(tile);
       break;
     case TileFormat::gray16:
-      bytes = encode_gray16(tile, constants_.gray16);
+      bytes = encode_gray16(tile, constants.gray16);
       break;
     case TileFormat::normal_map:
       bytes = encode_normal_map(tile);
@@ -175,38 +177,28 @@ Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address
       bytes = encode_hillshade(tile);
       break;
     case TileFormat::geotiff:
-      bytes = encode_geotiff(tile, generator_.source().georeference);
+      bytes = encode_geotiff(tile, georeference);
       break;
     case TileFormat::glb:
     case TileFormat::draco: {
       DracoOptions draco;
-      draco.position_quantum = constants_.position_quantum;
-      const double max_error =
-          options.max_error.value_or(default_max_error(scheme, address.z, options.grid));
+      draco.position_quantum = constants.position_quantum;
+      const double max_error = options.max_error.value_or(0.25 * tile.ground_spacing);
       // Skirts deep enough to hide the largest step between neighbours of adjacent levels.
       draco.skirt_height = std::max(5.0 * max_error, 1.0);
-      const TileMesh mesh = triangulate(tile, options);
+      const TileMesh mesh = triangulate_for(tile, options);
       bytes = format == TileFormat::glb ? encode_glb(tile, mesh, draco)
                                         : encode_draco(tile, mesh, draco);
       break;
     }
     case TileFormat::quantized_mesh: {
       QuantizedMeshOptions qm;
-      qm.edge_quantum = constants_.edge_quantum;
+      qm.edge_quantum = constants.edge_quantum;
       qm.normals = options.octvertexnormals;
-      if (options.watermask) {
-        Result<std::vector<std::uint8_t>> mask = generator_.water_mask(scheme, address);
-        if (!mask) return mask.error();
-        qm.water_mask = std::move(*mask);
-      }
-      if (options.metadata) {
-        const int deepest = constants_.max_useful_zoom[static_cast<int>(TileScheme::geographic)];
-        qm.metadata = quantized_mesh_metadata_json(
-                          availability(address.z + 1, std::min(deepest, address.z + 10), &address))
-                          .dump();
-      }
+      if (options.watermask) qm.water_mask = std::move(extras.water_mask);
+      if (options.metadata) qm.metadata = std::move(extras.metadata);
       Result<std::vector<std::uint8_t>> raw =
-          encode_quantized_mesh(tile, triangulate(tile, options), qm);
+          encode_quantized_mesh(tile, triangulate_for(tile, options), qm);
       if (!raw) return raw.error();
       bytes = gzip_compress(std::span<const std::uint8_t>(*raw), 6);
       product.content_encoding = "gzip";
@@ -215,6 +207,31 @@ Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address
   }
   if (!bytes) return bytes.error();
   product.bytes = std::move(*bytes);
+  return product;
+}
+
+Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address, TileFormat format,
+                                   const ProductOptions& options) {
+  Result<HeightTile> generated = height_tile(scheme, address, format, options);
+  if (!generated) return generated.error();
+  MeshExtras extras;
+  if (format == TileFormat::quantized_mesh) {
+    if (options.watermask) {
+      Result<std::vector<std::uint8_t>> mask = generator_.water_mask(scheme, address);
+      if (!mask) return mask.error();
+      extras.water_mask = std::move(*mask);
+    }
+    if (options.metadata) {
+      const int deepest = constants_.max_useful_zoom[static_cast<int>(TileScheme::geographic)];
+      extras.metadata =
+          quantized_mesh_metadata_json(
+              availability(address.z + 1, std::min(deepest, address.z + 10), &address))
+              .dump();
+    }
+  }
+  Result<Product> product = encode_product(*generated, format, options, constants_,
+                                           generator_.source().georeference, std::move(extras));
+  if (product) product->backend = generator_.last_backend();
   return product;
 }
 

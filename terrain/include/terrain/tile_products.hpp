@@ -75,6 +75,24 @@ struct ProductConstants {
   int max_useful_zoom[3] = {0, 0, 0};  ///< per scheme: where mesh grid spacing reaches ~1 m
 };
 
+/// What quantized-mesh carries besides the tile: the source computes these (ProductMaker from
+/// the scene's water layer and availability; other sources, such as planets, their own).
+struct MeshExtras {
+  std::optional<std::vector<std::uint8_t>> water_mask;  ///< see QuantizedMeshOptions
+  std::optional<std::string> metadata;                  ///< JSON text
+};
+
+/// Encodes a height tile in `format` with a source's constants: the part of ProductMaker::make
+/// after the heights are known, for any source of height tiles. The tile must have the layout
+/// and size the format asks for (ProductMaker's request for the same options). Meshes use
+/// options.max_error or, by default, a quarter of the tile's ground spacing.
+Result<Product> encode_product(const HeightTile& tile, TileFormat format,
+                               const ProductOptions& options, const ProductConstants& constants,
+                               const Georeference& georeference, MeshExtras extras = {});
+
+/// The triangulation encode_product uses for a mesh tile.
+TileMesh triangulate_for(const HeightTile& tile, const ProductOptions& options);
+
 /// Makes products. Holds a TileGenerator, so it is not thread-safe: use one per thread.
 class ProductMaker {
  public:

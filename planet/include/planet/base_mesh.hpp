@@ -1,0 +1,56 @@
+// The base mesh (Derzapf et al. 2011 §4): the octahedron bisected to B levels with randomised
+// vertex positions (eq. 2) on the sphere (eq. 1); continents grown face by face to the land
+// fraction; coasts labelled; river networks grown from the mouths in seeded order with ground
+// and water altitudes (eqs. 3–4); then every level-B edge split once (two more levels), which
+// inserts the mountain vertices between rivers (eq. 5). Deterministic from the definition alone.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "planet/mesh.hpp"
+
+namespace planet {
+
+struct BuildOptions {
+  /// Threads for the vertex computations of the bisection levels. The result does not depend
+  /// on it: each split is a pure function of its diamond and is linked in a fixed order.
+  int threads = 1;
+};
+
+struct BaseMeshStats {
+  int river_faces = 0;         ///< faces of the level-B mesh continents and rivers live on
+  int mesh_faces = 0;          ///< faces after the mountain levels (what refinement starts from)
+  double land_fraction = 0.0;  ///< land area over the sphere's, on the level-B faces
+  int continents = 0;          ///< continents seeded (islands started when others were blocked)
+  int mouths = 0;
+  int river_vertices = 0;      ///< continental vertices on a river (all of them, §4.2)
+  int endorheic = 0;           ///< river ends that could not reach the sea
+  double longest_river = 0.0;  ///< metres along the base network
+};
+
+class BaseMesh {
+ public:
+  Rules rules;
+  Hierarchy hierarchy;                    ///< levels 0 … B + 2, every diamond split
+  std::vector<std::int32_t> leaves;       ///< the level B + 2 triangles
+  std::vector<std::int32_t> river_faces;  ///< the level-B triangles
+  /// Per vertex of the level-B mesh: the next vertex downstream, −1 for none (sea, coast that
+  /// is no mouth, river mouths).
+  std::vector<std::int32_t> downstream;
+  BaseMeshStats stats;
+
+  explicit BaseMesh(const PlanetDefinition& definition) : rules(definition), hierarchy(&rules) {}
+  BaseMesh(const BaseMesh&) = delete;  // the hierarchy points at rules
+  BaseMesh& operator=(const BaseMesh&) = delete;
+
+  /// SHA-256 (hex) of every vertex's and triangle's data, in creation order.
+  std::string hash() const;
+};
+
+std::unique_ptr<BaseMesh> build_base_mesh(const PlanetDefinition& definition,
+                                          const BuildOptions& options = {});
+
+}  // namespace planet

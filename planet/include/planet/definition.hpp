@@ -1,0 +1,74 @@
+// A planet definition: a seed plus the parameters of Derzapf et al. 2011 (Table 2), parsed from
+// JSON with errors that name the offending field, serialised canonically (every field explicit,
+// keys sorted, shortest round-trip numbers) and identified by the SHA-256 of that text.
+//
+// Units: metres for lengths and altitudes, dimensionless slopes (metres per metre: Table 2's
+// "1 m/km" is 0.001). Altitudes are relative to the planet's reference surface (the sphere of
+// `radius`, or the ellipsoid when `flattening` > 0); Table 2's 3 km sea level datum is shifted
+// to 0 so that tiles carry heights above sea level.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "terrain/result.hpp"
+
+namespace planet {
+
+using terrain::Error;
+using terrain::Result;
+
+/// Schneider's rescale-and-add fractal added below the mesh's resolution (planet.md "Detail").
+struct DetailParams {
+  double amplitude = 350.0;     ///< metres at the first octave
+  double wavelength = 60000.0;  ///< metres, the first octave's wavelength
+  double hurst = 0.9;           ///< H: octave k has amplitude·lacunarity^(−kH)
+  double lacunarity = 2.2;      ///< r: octave k has wavelength / r^k
+};
+
+struct PlanetDefinition {
+  std::uint64_t seed = 1;
+  double radius = 6371000.0;             ///< r (Table 2: 6371 km); the equatorial radius
+  double flattening = 0.0;               ///< 0: sphere (default); > 0: ellipsoid of revolution
+  int continents = 6;                    ///< Table 2: 6
+  double land_fraction = 0.5;            ///< Table 2: 50 % of the surface
+  double sea_level = 0.0;                ///< ε_sea, relative to the reference surface
+  double sea_depth = 4500.0;             ///< deepest ocean floor below sea level
+  double max_river_altitude = 9000;      ///< a_max_river above sea level (Table 2: 12 km − 3 km)
+  double max_mountain_altitude = 10000;  ///< a_max_mountain above sea level (13 km − 3 km)
+  double river_depth = 300.0;            ///< ε_river, depth of a river at its mouth
+  double min_river_length = 200000.0;    ///< l_rmin: new river arms only on longer edges
+  double min_river_slope = 0.001;        ///< s_r (1 m/km)
+  double min_riverbed_slope = 0.3;       ///< s_rb (300 m/km)
+  double min_slope_near_river = 0.001;   ///< s_p (1 m/km)
+  double riverbed_edge_height = 10.0;    ///< ε_rb
+  double max_ground_slope = 1.0;         ///< s_g (1000 m/km)
+  double mountain_slope = 0.012;         ///< e_m of eq. 5 (not in Table 2)
+  int base_faces = 5000;                 ///< base shape accuracy; rounded to 8·2^k faces
+  double finest_edge = 10.0;  ///< refinement stops at edges this short; detail noise goes on
+  DetailParams detail;
+
+  /// Faces of the base mesh after rounding: the 8·2^k nearest to base_faces (in log scale).
+  int base_levels() const;
+};
+
+/// Parses and validates a definition. Missing fields take the defaults above; unknown fields,
+/// wrong types and out-of-range values are refused with the field's JSON pointer ("/radius",
+/// "/detail/hurst"). Never throws.
+Result<PlanetDefinition> parse_planet(const nlohmann::json& document);
+/// The same from text; malformed JSON is refused with pointer "".
+Result<PlanetDefinition> parse_planet_text(std::string_view text);
+/// Reads a definition file.
+Result<PlanetDefinition> load_planet_file(const std::string& path);
+
+/// Every field explicit: parse_planet(canonical_json(d)) gives d back.
+nlohmann::json canonical_json(const PlanetDefinition& definition);
+/// The canonical text: keys sorted, no whitespace, shortest round-trip numbers.
+std::string canonical_text(const PlanetDefinition& definition);
+/// The planet's id: lowercase hex SHA-256 of canonical_text (64 characters, URL-safe).
+std::string planet_id(const PlanetDefinition& definition);
+
+}  // namespace planet

@@ -1,0 +1,185 @@
+// The planet's mesh hierarchy (Derzapf et al. 2011 §3, §4, §5.3), made order-independent.
+//
+// Every level is a conforming triangulation of the sphere in which each triangle is paired with
+// the neighbour across its "base" edge: the pair is a diamond. Refinement splits whole diamonds:
+// the edge split of Figure 2, with v_ev1, v_ev2 the base's ends and v_t, v_d the two apexes.
+// The new vertex may lie anywhere inside the diamond (eq. 2, eq. 7) because the four new
+// triangles fan out from it to the diamond's unchanged outline, so they tile exactly the area
+// the two old triangles covered. The new triangles' bases are the old outline edges, shared with
+// the neighbouring diamond's new triangles: the next level is again a set of diamonds. Starting
+// from the octahedron (four diamonds around the equator) every level doubles the face count.
+//
+// Why this makes tiles pure functions: a new vertex is computed from the four diamond vertices
+// only, its seed is mix(s_ev1 + s_ev2) (the paper's sum of endpoint seeds, then a 64-bit
+// finaliser so that sums of sums do not collide), and the roles of ev1/ev2 are ordered by seed.
+// So every vertex at every level is a function of the base mesh alone, whichever diamonds were
+// split before and in what order: the split level of the paper is the diamond's level here.
+// A point's height at level L is found by descending from the octahedron face holding it,
+// splitting (lazily, memoised in a Hierarchy) only the diamonds on its way and those whose
+// vertices they need.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "planet/definition.hpp"
+#include "planet/geodesy.hpp"
+
+namespace planet {
+
+/// What a vertex is; a river mouth is coast and river at once (§3.2: "vertices have all the
+/// types of their incident edges").
+enum VertexFlags : std::uint8_t {
+  kSea = 1,    ///< under the sea
+  kCoast = 2,  ///< on the coastline (ground at sea level, or a river mouth below it)
+  kLand = 4,   ///< continental
+  kRiver = 8,  ///< on a river: water above the ground (a spring: water equals ground)
+};
+
+enum class EdgeType : std::uint8_t { sea, coast, land, river };
+enum class FaceType : std::uint8_t { sea, land };
+
+struct Vertex {
+  Vec3d p{};                       ///< unit direction from the centre (eq. 1 without the altitude)
+  std::uint64_t seed = 0;          ///< s_v; a split's vertex gets mix(s_ev1 + s_ev2)
+  double ground = 0.0;             ///< a_v, metres relative to the reference surface
+  double water = 0.0;              ///< w_v; the vertex is submerged where w_v > a_v
+  std::array<float, 3> tangent{};  ///< rivers: unit downstream direction (eq. 9's t_v)
+  std::uint8_t flags = kSea;
+  float detail = 0.0f;  ///< weight of the fractal detail: 1 on dry land, 0 on water and rivers
+};
+
+/// A triangle (v0, v1, v2), counter-clockwise seen from outside; (v0, v1) is its base.
+struct Tri {
+  std::array<std::uint32_t, 3> v{};
+  /// Triangle across edge k: k = 0 the base (v0, v1), 1 (v1, v2), 2 (v2, v0); −1 not yet known
+  /// (only the base's: the partner is created when the neighbouring diamond is split).
+  std::array<std::int32_t, 3> nb{-1, -1, -1};
+  std::array<std::int32_t, 2> child{-1, -1};  ///< child 0 = (v2, v0, m), child 1 = (v1, v2, m)
+  std::int32_t parent = -1;
+  std::uint8_t level = 0;
+  std::uint8_t which = 0;  ///< which child of the parent
+  std::array<EdgeType, 3> edge{EdgeType::sea, EdgeType::sea, EdgeType::sea};
+  FaceType face = FaceType::sea;
+};
+
+/// Constants of the split rules, derived from a definition once.
+struct Rules {
+  PlanetDefinition def;
+  double radius = 0.0;  ///< metres per radian of arc
+  int base_level = 0;   ///< B: the level continents and rivers are built on
+  int mesh_level = 0;   ///< B + 2: the stored base mesh (every level-B edge split once)
+  int max_level = 0;    ///< refinement stops here (edges about finest_edge long)
+  double roughness_scale = 0.0;
+
+  explicit Rules(const PlanetDefinition& definition);
+  /// Random displacement scale for an edge of length l metres: amplitude·(l/wavelength)^H.
+  double roughness(double length) const;
+  /// Typical edge length at a level (metres).
+  double edge_length(int level) const;
+};
+
+/// What splitting a diamond produces, besides the topology.
+struct SplitResult {
+  Vertex m;
+  EdgeType half_a, half_b;    ///< (ev1, m) and (m, ev2)
+  EdgeType spoke_t, spoke_d;  ///< (m, t) and (m, d)
+};
+
+/// The split rules of §3.2, §4.1 and §5.3 for the diamond (a, b; t, d): a, b the base's ends, t
+/// the apex of the triangle (a, b, t) and d of (b, a, d). A pure function of its arguments, and
+/// symmetric: swapping (a, b) together with (t, d) gives the same vertex.
+SplitResult split_diamond(const Rules& rules, int level, const Vertex& a, const Vertex& b,
+                          const Vertex& t, const Vertex& d, EdgeType base, FaceType face_t,
+                          FaceType face_d);
+
+/// A lazily refined hierarchy: a copy of the base mesh plus whatever was split on demand.
+/// Splitting is memoised; what a vertex or triangle holds never depends on what else was split.
+/// Not thread-safe: one per thread.
+class Hierarchy {
+ public:
+  Hierarchy() = default;
+  explicit Hierarchy(const Rules* rules) : rules_(rules) {}
+
+  std::vector<Vertex> vertices;
+  std::vector<Tri> tris;
+
+  /// The eight octahedron faces, linked and paired (the four equatorial edges are the bases).
+  void make_octahedron(std::uint64_t seed);
+  /// Splits t's diamond unless it is split already (and, first, whatever that needs).
+  void ensure_split(std::int32_t t);
+  /// Makes sure tris[t].nb[0] is known.
+  void ensure_partner(std::int32_t t);
+  /// Applies a split computed by split_diamond to the diamond (t, partner of t).
+  void apply_split(std::int32_t t, const SplitResult& split);
+  /// The diamond's inputs for split_diamond.
+  SplitResult compute_split(std::int32_t t) const;
+
+  /// The octahedron face holding direction p (ties resolved by the signs' convention).
+  std::int32_t root_face(const Vec3d& p) const;
+  /// The triangle at `level` holding p, splitting what is needed on the way.
+  std::int32_t locate(const Vec3d& p, int level);
+  /// Of the four children of t's split diamond, the one holding p.
+  std::int32_t locate_child(std::int32_t t, const Vec3d& p) const;
+
+  const Rules* rules() const { return rules_; }
+
+ private:
+  const Rules* rules_ = nullptr;
+};
+
+/// Gnomonic barycentric coordinates of p in the spherical triangle (x, y, z): continuous across
+/// shared edges (on an edge they depend on its two ends only).
+std::array<double, 3> barycentric(const Vec3d& x, const Vec3d& y, const Vec3d& z, const Vec3d& p);
+
+/// 64-bit finaliser (splitmix64's): the seed mixer and the source of every random number.
+constexpr std::uint64_t mix64(std::uint64_t z) {
+  z += 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+/// A deterministic stream of numbers from a seed.
+class Random {
+ public:
+  explicit Random(std::uint64_t seed) : state_(seed) {}
+  std::uint64_t next() { return mix64(state_ += 0x9e3779b97f4a7c15ULL); }
+  /// Uniform in [0, 1), 53 bits.
+  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+  double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
+  /// Uniform in [0, n).
+  std::uint32_t below(std::uint32_t n) {
+    return static_cast<std::uint32_t>((next() >> 32) * n >> 32);
+  }
+
+ private:
+  std::uint64_t state_;
+};
+
+// Small vector helpers on unit directions.
+inline Vec3d add(const Vec3d& a, const Vec3d& b) {
+  return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
+}
+inline Vec3d sub(const Vec3d& a, const Vec3d& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+inline Vec3d scale(const Vec3d& a, double s) {
+  return {a[0] * s, a[1] * s, a[2] * s};
+}
+inline double dot(const Vec3d& a, const Vec3d& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+inline Vec3d cross(const Vec3d& a, const Vec3d& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+inline double det(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  return dot(cross(a, b), c);
+}
+Vec3d normalize(const Vec3d& a);
+/// Angle in radians between two unit vectors (stable for tiny angles).
+double angle(const Vec3d& a, const Vec3d& b);
+
+}  // namespace planet

@@ -1,0 +1,97 @@
+// A planet: its definition, base mesh and geodesy, and the height function every product
+// samples. The height at a point for a given level of detail is computed locally (the mesh
+// hierarchy descended to the point, then Schneider's fractal detail), so it never depends on
+// what else was evaluated, in what order or on which thread.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "planet/base_mesh.hpp"
+#include "planet/definition.hpp"
+#include "planet/geodesy.hpp"
+#include "terrain/math.hpp"
+
+namespace planet {
+
+/// What lies at a point (the `type` of sample?lat=&lon=).
+enum class SurfaceType { sea, coast, land, river };
+std::string_view surface_name(SurfaceType type);
+
+struct PointSample {
+  double ground = 0.0;  ///< metres above the reference surface (sea level is the definition's)
+  double water = 0.0;   ///< the water surface where submerged, else equal to ground
+  SurfaceType type = SurfaceType::land;
+  int level = 0;  ///< mesh level the point was evaluated at
+  /// Metres to the nearest river edge of the triangle holding the point (infinity if none): lets
+  /// pictures draw rivers narrower than a pixel.
+  double river_distance = 0.0;
+};
+
+class Planet {
+ public:
+  /// Builds the base mesh (the expensive part, tens of milliseconds).
+  static std::shared_ptr<const Planet> create(const PlanetDefinition& definition,
+                                              const BuildOptions& options = {});
+  /// Parses, validates and builds; errors name the field (see parse_planet).
+  static Result<std::shared_ptr<const Planet>> from_json(const nlohmann::json& document);
+
+  const PlanetDefinition& definition() const { return base_->rules.def; }
+  const std::string& id() const { return id_; }
+  const BaseMesh& base_mesh() const { return *base_; }
+  const Rules& rules() const { return base_->rules; }
+  const Geodesy& geodesy() const { return geodesy_; }
+
+  /// The mesh level for samples `spacing` metres apart: leaf edges about two samples long,
+  /// between the base mesh's level and the finest (finest_edge).
+  int level_for_spacing(double spacing) const;
+  /// Schneider's visible octave count for that spacing (fractional; wavelengths ≥ 2 samples).
+  double octaves_for_spacing(double spacing) const;
+  /// Metres between the rows of a geographic tile at zoom z with `cells` cells: the LoD of every
+  /// tile at (z, cells), wherever it lies, so that neighbours sample alike.
+  double ground_spacing(int z, int cells) const;
+  /// A bound of every height the planet produces (samples are clamped into it).
+  terrain::Interval elevation_range() const;
+
+  /// The fractal detail at direction p before its weight: Σ_k a_k (1 + S(p r^k / λ))/2 ≥ 0,
+  /// so it only ever raises the ground (water stays in its bed, coasts stay coasts).
+  double detail(const Vec3d& direction, double octaves) const;
+
+ private:
+  Planet(const PlanetDefinition& definition, const BuildOptions& options);
+  std::unique_ptr<BaseMesh> base_;
+  Geodesy geodesy_;
+  std::string id_;
+};
+
+/// Evaluates points of one planet. Keeps the refined hierarchy between calls as a cache (results
+/// never depend on it); not thread-safe: one per thread.
+class Sampler {
+ public:
+  explicit Sampler(std::shared_ptr<const Planet> planet);
+
+  const Planet& planet() const { return *planet_; }
+
+  /// At full detail (the finest level, detail down to a centimetre).
+  PointSample sample(double latitude, double longitude);
+  /// At the level of detail of samples `spacing` metres apart.
+  PointSample sample(double latitude, double longitude, double spacing);
+  /// At a direction, mesh level and octave count.
+  PointSample at(const Vec3d& direction, int level, double octaves);
+
+  /// Triangles in the cache; trim() drops everything beyond the base mesh.
+  std::size_t cached_triangles() const { return hierarchy_.tris.size(); }
+  void trim();
+
+ private:
+  std::shared_ptr<const Planet> planet_;
+  Hierarchy hierarchy_;
+};
+
+/// {"latitude", "longitude", "ground", "water", "type", "level"}: the sample route's body.
+nlohmann::json sample_json(double latitude, double longitude, const PointSample& sample);
+
+}  // namespace planet

@@ -1,0 +1,63 @@
+// A planet's tile products on the geographic scheme (EPSG:4326 TMS, two root tiles, as Cesium
+// reads it): height tiles that plug into terrain's encoders (every format of docs/tiles.md),
+// quantized-mesh with a water mask from the sea and the rivers, and layer.json. What the
+// server's /api/v1/planets/{id}/… routes call.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "planet/planet.hpp"
+#include "terrain/tile_products.hpp"
+
+namespace planet {
+
+/// Makes tiles of one planet. Holds a Sampler (a cache), so it is not thread-safe: use one per
+/// thread; the bytes never depend on which one made them or what it made before.
+class PlanetTiles {
+ public:
+  explicit PlanetTiles(std::shared_ptr<const Planet> planet);
+
+  const Planet& planet() const { return sampler_.planet(); }
+  /// The deepest zoom offered (the geographic scheme's).
+  static int max_zoom();
+
+  /// The products' constants: one gray16 encoding and edge quantum for the whole planet; the
+  /// glTF/Draco position lattice per zoom (tile positions are plate carrée metres, R·λ and R·φ,
+  /// whose span shrinks with the zoom, so each zoom's lattice is as fine as a tile allows).
+  terrain::ProductConstants constants_at(int z) const;
+
+  /// Checks the address (geographic scheme), format and options; the error names the field
+  /// ("/z", "/x", "/size", "/grid", "/max_error").
+  terrain::Status validate(const terrain::TileAddress& address, terrain::TileFormat format,
+                           const terrain::ProductOptions& options) const;
+
+  /// Heights and slopes (east, north) of a geographic tile request. Samples at the same place in
+  /// two tiles of one zoom and size are bit-identical (positions come from global sample
+  /// indices, the height from the position alone). The error's pointer names the field.
+  Result<terrain::HeightTile> height_tile(const terrain::TileRequest& request);
+  /// The height tile behind a product.
+  Result<terrain::HeightTile> height_tile(const terrain::TileAddress& address,
+                                          terrain::TileFormat format,
+                                          const terrain::ProductOptions& options = {});
+  /// quantized-mesh's water mask: 256×256 bytes, row 0 north, 255 where the sea or a river
+  /// covers the ground, else 0; one byte when the whole tile is land (0) or water (255).
+  Result<std::vector<std::uint8_t>> water_mask(const terrain::TileAddress& address);
+
+  /// A product: the height tile encoded by terrain::encode_product.
+  Result<terrain::Product> make(const terrain::TileAddress& address, terrain::TileFormat format,
+                                const terrain::ProductOptions& options = {});
+
+  /// Cesium's layer.json: every tile exists at every zoom up to max_zoom().
+  nlohmann::json layer_json(const terrain::LayerJsonOptions& base) const;
+
+ private:
+  Result<terrain::HeightTile> evaluate(const terrain::TileRequest& request,
+                                       std::vector<std::uint8_t>* submerged);
+  Sampler sampler_;
+};
+
+}  // namespace planet

@@ -1,0 +1,520 @@
+#include "planet/base_mesh.hpp"
+
+#include <openssl/evp.h>
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <numbers>
+#include <thread>
+#include <unordered_map>
+
+#include "gradient_noise.hpp"
+
+namespace planet {
+namespace {
+
+constexpr double kFourPi = 4.0 * std::numbers::pi;
+
+// Area of the spherical triangle (unit sphere): the excess E with tan(E/2) = |det| / (1 + …).
+double spherical_area(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const double num = std::abs(det(a, b, c));
+  const double den = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
+  return 2.0 * std::atan2(num, den);
+}
+
+// Low-frequency field that shapes the continents: growth prefers faces where it is high.
+double shape_field(const Vec3d& p, std::uint32_t seed) {
+  double sum = 0.0, amplitude = 1.0, frequency = 1.5;
+  for (int octave = 0; octave < 4; ++octave) {
+    sum += amplitude * detail::gradient3(p[0] * frequency, p[1] * frequency, p[2] * frequency,
+                                         seed + static_cast<std::uint32_t>(octave));
+    amplitude *= 0.5;
+    frequency *= 2.0;
+  }
+  return sum;
+}
+
+std::array<float, 3> tangent_towards(const Vec3d& p, const Vec3d& direction) {
+  const Vec3d t = sub(direction, scale(p, dot(direction, p)));
+  const double n = std::sqrt(dot(t, t));
+  if (!(n > 0.0)) return {0.0f, 0.0f, 0.0f};
+  return {static_cast<float>(t[0] / n), static_cast<float>(t[1] / n), static_cast<float>(t[2] / n)};
+}
+
+Vec3d unit_or_zero(const Vec3d& v) {
+  const double n = std::sqrt(dot(v, v));
+  return n > 0.0 ? scale(v, 1.0 / n) : Vec3d{0, 0, 0};
+}
+
+struct Edge {
+  std::uint32_t u, v;
+  std::int32_t face[2];  // tri indices
+  int side[2];           // edge index within each tri
+};
+
+// §4.1 and §4.2 on the level-B mesh.
+class Classifier {
+ public:
+  Classifier(BaseMesh& mesh, const std::vector<std::int32_t>& faces)
+      : mesh_(mesh),
+        h_(mesh.hierarchy),
+        def_(mesh.rules.def),
+        faces_(faces),
+        random_(mix64(def_.seed ^ 0x636f6e74696e656eULL)) {}
+
+  void run() {
+    index();
+    grow_continents();
+    label_edges();
+    grow_rivers();
+    assign_altitudes();
+  }
+
+ private:
+  Vertex& vertex(std::uint32_t v) { return h_.vertices[v]; }
+  Tri& tri(std::int32_t t) { return h_.tris[static_cast<std::size_t>(t)]; }
+
+  void index() {
+    const std::size_t nv = h_.vertices.size();
+    face_of_.assign(h_.tris.size(), -1);
+    for (std::size_t f = 0; f < faces_.size(); ++f) {
+      face_of_[static_cast<std::size_t>(faces_[f])] = static_cast<std::int32_t>(f);
+    }
+    incident_.assign(nv, {});
+    neighbours_.assign(nv, {});
+    std::unordered_map<std::uint64_t, std::size_t> seen;
+    for (std::size_t f = 0; f < faces_.size(); ++f) {
+      const Tri& t = tri(faces_[f]);
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t u = t.v[static_cast<std::size_t>(k)];
+        const std::uint32_t v = t.v[static_cast<std::size_t>((k + 1) % 3)];
+        incident_[u].push_back(static_cast<std::int32_t>(f));
+        const std::uint64_t key =
+            (static_cast<std::uint64_t>(std::min(u, v)) << 32) | std::max(u, v);
+        auto [it, inserted] = seen.emplace(key, edges_.size());
+        if (inserted) {
+          edges_.push_back({u, v, {faces_[f], -1}, {k, -1}});
+          neighbours_[u].push_back({v, static_cast<std::uint32_t>(it->second)});
+          neighbours_[v].push_back({u, static_cast<std::uint32_t>(it->second)});
+        } else {
+          edges_[it->second].face[1] = faces_[f];
+          edges_[it->second].side[1] = k;
+        }
+      }
+    }
+    area_.resize(faces_.size());
+    for (std::size_t f = 0; f < faces_.size(); ++f) {
+      const Tri& t = tri(faces_[f]);
+      area_[f] = spherical_area(vertex(t.v[0]).p, vertex(t.v[1]).p, vertex(t.v[2]).p);
+    }
+  }
+
+  std::int32_t face_across(std::size_t f, int k) {
+    return face_of_[static_cast<std::size_t>(tri(faces_[f]).nb[static_cast<std::size_t>(k)])];
+  }
+
+  // §4.1: a face joins continent i when at most one of its vertices is pure sea and the others
+  // already belong to i, so two continents always stay an edge apart.
+  bool can_add(std::size_t f, int i) {
+    int sea = 0;
+    for (std::uint32_t v : tri(faces_[f]).v) {
+      if (owner_[v] < 0) {
+        ++sea;
+      } else if (owner_[v] != i) {
+        return false;
+      }
+    }
+    return sea <= 1;
+  }
+
+  void add_face(std::size_t f, int i) {
+    land_[f] = true;
+    land_area_ += area_[f];
+    for (std::uint32_t v : tri(faces_[f]).v) owner_[v] = i;
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t g = face_across(f, k);
+      if (!land_[static_cast<std::size_t>(g)]) frontier_[static_cast<std::size_t>(i)].push_back(g);
+    }
+  }
+
+  bool seed_continent() {
+    for (int attempt = 0; attempt < 4096; ++attempt) {
+      const std::size_t f = random_.below(static_cast<std::uint32_t>(faces_.size()));
+      if (land_[f]) continue;
+      bool free = true;  // every vertex pure sea: the new continent touches no other
+      for (std::uint32_t v : tri(faces_[f]).v) free = free && owner_[v] < 0;
+      if (!free) continue;
+      const int i = static_cast<int>(frontier_.size());
+      frontier_.emplace_back();
+      weight_.push_back(0.5 + random_.uniform());
+      add_face(f, i);
+      return true;
+    }
+    return false;
+  }
+
+  void grow_continents() {
+    owner_.assign(h_.vertices.size(), -1);
+    land_.assign(faces_.size(), false);
+    const double target = def_.land_fraction * kFourPi;
+    const auto field_seed = static_cast<std::uint32_t>(mix64(def_.seed ^ 0x7368617065ULL));
+    for (int i = 0; i < def_.continents; ++i) {
+      if (!seed_continent()) break;
+    }
+    while (land_area_ < target) {
+      double total = 0.0;
+      for (std::size_t i = 0; i < frontier_.size(); ++i) {
+        if (!frontier_[i].empty()) total += weight_[i];
+      }
+      if (total == 0.0) {  // every continent is blocked: start an island
+        if (!seed_continent()) break;
+        continue;
+      }
+      double pick = random_.uniform() * total;
+      std::size_t i = 0;
+      for (; i < frontier_.size(); ++i) {
+        if (frontier_[i].empty()) continue;
+        if (pick < weight_[i]) break;
+        pick -= weight_[i];
+      }
+      if (i == frontier_.size()) i = frontier_.size() - 1;
+      while (frontier_[i].empty()) --i;
+      auto& list = frontier_[i];
+      // Of three random frontier faces, the one where the shape field is highest: continents
+      // follow the field's ridges instead of growing as round blobs.
+      std::size_t best = random_.below(static_cast<std::uint32_t>(list.size()));
+      double best_value = -1e9;
+      for (int k = 0; k < 3; ++k) {
+        const std::size_t j = random_.below(static_cast<std::uint32_t>(list.size()));
+        const Tri& t = tri(faces_[static_cast<std::size_t>(list[j])]);
+        const Vec3d c = normalize(add(add(vertex(t.v[0]).p, vertex(t.v[1]).p), vertex(t.v[2]).p));
+        const double value = shape_field(c, field_seed);
+        if (value > best_value) best_value = value, best = j;
+      }
+      const auto f = static_cast<std::size_t>(list[best]);
+      list[best] = list.back();
+      list.pop_back();
+      if (!land_[f] && can_add(f, static_cast<int>(i))) add_face(f, static_cast<int>(i));
+    }
+    mesh_.stats.land_fraction = land_area_ / kFourPi;
+    mesh_.stats.continents = static_cast<int>(frontier_.size());
+  }
+
+  void label_edges() {
+    for (std::size_t f = 0; f < faces_.size(); ++f) {
+      Tri& t = tri(faces_[f]);
+      t.face = land_[f] ? FaceType::land : FaceType::sea;
+      for (int k = 0; k < 3; ++k) {
+        const bool other = land_[static_cast<std::size_t>(face_across(f, k))];
+        t.edge[static_cast<std::size_t>(k)] = land_[f] && other     ? EdgeType::land
+                                              : !land_[f] && !other ? EdgeType::sea
+                                                                    : EdgeType::coast;
+      }
+    }
+    const std::size_t nv = h_.vertices.size();
+    kind_.assign(nv, kSea);
+    for (std::uint32_t v = 0; v < nv; ++v) {
+      if (owner_[v] < 0) continue;
+      bool all_land = true;
+      for (std::int32_t f : incident_[v]) all_land = all_land && land_[static_cast<std::size_t>(f)];
+      kind_[v] = all_land ? kLand : kCoast;
+    }
+  }
+
+  void set_edge(std::uint32_t e, EdgeType type) {
+    for (int s = 0; s < 2; ++s) {
+      tri(edges_[e].face[s]).edge[static_cast<std::size_t>(edges_[e].side[s])] = type;
+    }
+  }
+
+  void link(std::uint32_t v, std::uint32_t u, std::uint32_t edge) {
+    down_[v] = static_cast<std::int32_t>(u);
+    ++inflow_[u];
+    in_network_[v] = in_network_[u] = true;
+    set_edge(edge, EdgeType::river);
+    for (auto [x, e] : neighbours_[v]) {
+      if (kind_[x] == kLand && !in_network_[x]) candidates_.push_back({v, x});
+    }
+  }
+
+  // §4.2: mouths from continental vertices next to a free coast vertex, in seeded order; then
+  // river edges from the network to continental vertices in seeded order, avoiding a third
+  // river into one vertex where another edge will do.
+  void grow_rivers() {
+    const std::size_t nv = h_.vertices.size();
+    down_.assign(nv, -1);
+    inflow_.assign(nv, 0);
+    in_network_.assign(nv, false);
+    mouth_.assign(nv, false);
+    std::vector<std::uint32_t> order(nv);
+    for (std::uint32_t v = 0; v < nv; ++v) order[v] = v;
+    for (std::size_t i = nv; i > 1; --i) {
+      std::swap(order[i - 1], order[random_.below(static_cast<std::uint32_t>(i))]);
+    }
+    for (int pass = 0; pass < 2; ++pass) {
+      for (std::uint32_t v : order) {
+        if (kind_[v] != kLand || in_network_[v]) continue;
+        for (auto [u, e] : neighbours_[v]) {
+          if (kind_[u] != kCoast || (pass == 0 && mouth_[u])) continue;
+          // Keep mouths apart along the coast on the first pass: one river per stretch.
+          bool crowded = false;
+          for (auto [w, e2] : neighbours_[u]) crowded = crowded || (pass == 0 && mouth_[w]);
+          if (crowded) continue;
+          mouth_[u] = true;
+          link(v, u, e);
+          break;
+        }
+      }
+      while (!candidates_.empty()) {
+        const std::size_t j = random_.below(static_cast<std::uint32_t>(candidates_.size()));
+        auto [r, v] = candidates_[j];
+        candidates_[j] = candidates_.back();
+        candidates_.pop_back();
+        if (in_network_[v]) continue;
+        std::uint32_t target = r;
+        if (inflow_[r] >= 2) {
+          for (auto [x, e] : neighbours_[v]) {
+            if (kind_[x] == kLand && in_network_[x] && inflow_[x] < 2) {
+              target = x;
+              break;
+            }
+          }
+        }
+        std::uint32_t edge = 0;
+        for (auto [x, e] : neighbours_[v]) {
+          if (x == target) edge = e;
+        }
+        link(v, target, edge);
+      }
+    }
+  }
+
+  void assign_altitudes() {
+    const std::size_t nv = h_.vertices.size();
+    const double radius = mesh_.rules.radius;
+    // Mouths first, then upstream in breadth-first order (children by vertex index).
+    std::vector<std::vector<std::uint32_t>> upstream(nv);
+    for (std::uint32_t v = 0; v < nv; ++v) {
+      if (down_[v] >= 0) upstream[static_cast<std::size_t>(down_[v])].push_back(v);
+    }
+    std::vector<std::uint32_t> bfs;
+    std::vector<double> distance(nv, 0.0), longest(nv, 0.0);
+    for (std::uint32_t v = 0; v < nv; ++v) {
+      if (down_[v] < 0 && in_network_[v]) bfs.push_back(v);
+    }
+    for (std::size_t i = 0; i < bfs.size(); ++i) {
+      const std::uint32_t u = bfs[i];
+      for (std::uint32_t v : upstream[u]) {
+        distance[v] = distance[u] + radius * angle(vertex(u).p, vertex(v).p);
+        bfs.push_back(v);
+      }
+    }
+    for (std::size_t i = bfs.size(); i-- > 0;) {
+      const std::uint32_t v = bfs[i];
+      longest[v] = std::max(longest[v], distance[v]);
+      if (down_[v] >= 0) {
+        const auto u = static_cast<std::size_t>(down_[v]);
+        longest[u] = std::max(longest[u], longest[v]);
+      }
+    }
+    const double sea = def_.sea_level;
+    const double top = sea + def_.max_river_altitude;
+    // A spring's target altitude grows with its river's length (§4.2), reaching a_max_river
+    // for a river a quarter meridian long.
+    const double full_length = radius * std::numbers::pi / 2.0;
+    for (std::uint32_t v : bfs) {
+      Vertex& x = vertex(v);
+      if (down_[v] < 0) {  // a mouth (a coast vertex), or an endorheic sink
+        x.water = sea;
+        x.ground = kind_[v] == kCoast ? sea - def_.river_depth : sea;
+        if (kind_[v] != kCoast) ++mesh_.stats.endorheic;
+        ++mesh_.stats.mouths;
+        continue;
+      }
+      const auto u = static_cast<std::uint32_t>(down_[v]);
+      const Vertex& y = vertex(u);
+      const double le = distance[v] - distance[u];
+      const double target = sea + def_.max_river_altitude * std::min(1.0, longest[v] / full_length);
+      const double remaining = std::max(longest[v] - distance[u], le);
+      // Eq. 3/4: rise by the average elevation per metre times a random factor, at least the
+      // minimum river slope, and never above a_max_river.
+      const double rise =
+          std::max(def_.min_river_slope, 2.0 * random_.uniform() * (target - y.water) / remaining);
+      x.water = std::max(std::min(y.water + le * rise, top), y.water + le * def_.min_river_slope);
+      const double depth =
+          longest[v] > 0.0 ? def_.river_depth * (longest[v] - distance[v]) / longest[v] : 0.0;
+      x.ground = x.water - depth;
+      mesh_.stats.longest_river = std::max(mesh_.stats.longest_river, longest[v]);
+    }
+    // Tangents (downstream), flags and detail weights.
+    for (std::uint32_t v = 0; v < nv; ++v) {
+      Vertex& x = vertex(v);
+      x.detail = 0.0f;
+      if (kind_[v] == kSea) continue;
+      if (!in_network_[v] && kind_[v] == kLand) {  // no way to the sea: an endorheic basin
+        x.flags = kLand | kRiver;
+        x.ground = x.water = sea + def_.riverbed_edge_height;
+        ++mesh_.stats.endorheic;
+        continue;
+      }
+      if (!in_network_[v]) {  // a coast vertex without a river
+        x.flags = kCoast;
+        x.ground = x.water = sea;
+        continue;
+      }
+      x.flags =
+          static_cast<std::uint8_t>(kind_[v] == kCoast ? (kCoast | kRiver) : (kLand | kRiver));
+      if (kind_[v] == kLand) ++mesh_.stats.river_vertices;
+      Vec3d direction{0, 0, 0};
+      if (down_[v] >= 0) {
+        direction = unit_or_zero(sub(vertex(static_cast<std::uint32_t>(down_[v])).p, x.p));
+      }
+      std::int32_t main = -1;
+      for (std::uint32_t w : upstream[v]) {
+        if (main < 0 || longest[w] > longest[static_cast<std::size_t>(main)]) {
+          main = static_cast<std::int32_t>(w);
+        }
+      }
+      if (main >= 0) {
+        direction =
+            add(direction, unit_or_zero(sub(x.p, vertex(static_cast<std::uint32_t>(main)).p)));
+      }
+      x.tangent = tangent_towards(x.p, direction);
+    }
+    // Sea floor: deeper with the distance from the coast (breadth-first over sea vertices).
+    std::vector<int> hops(nv, -1);
+    std::vector<std::uint32_t> queue;
+    for (std::uint32_t v = 0; v < nv; ++v) {
+      if (kind_[v] != kSea) hops[v] = 0, queue.push_back(v);
+    }
+    for (std::size_t i = 0; i < queue.size(); ++i) {
+      for (auto [w, e] : neighbours_[queue[i]]) {
+        if (hops[w] < 0) hops[w] = hops[queue[i]] + 1, queue.push_back(w);
+      }
+    }
+    const double hop_length = mesh_.rules.edge_length(mesh_.rules.base_level);
+    for (std::uint32_t v = 0; v < nv; ++v) {
+      if (kind_[v] != kSea) continue;
+      Vertex& x = vertex(v);
+      const double d = std::max(hops[v], 1) * hop_length;
+      const double depth = 150.0 + (def_.sea_depth - 150.0) * (1.0 - std::exp(-d / 1.0e6)) *
+                                       (0.75 + 0.25 * random_.uniform());
+      x.flags = kSea;
+      x.water = sea;
+      x.ground = sea - std::min(depth, def_.sea_depth);
+    }
+    mesh_.downstream = down_;
+  }
+
+  BaseMesh& mesh_;
+  Hierarchy& h_;
+  const PlanetDefinition& def_;
+  const std::vector<std::int32_t>& faces_;
+  Random random_;
+  std::vector<std::int32_t> face_of_;
+  std::vector<std::vector<std::int32_t>> incident_;
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> neighbours_;  // (vertex, edge)
+  std::vector<Edge> edges_;
+  std::vector<double> area_;
+  std::vector<int> owner_;
+  std::vector<bool> land_;
+  double land_area_ = 0.0;
+  std::vector<std::vector<std::int32_t>> frontier_;
+  std::vector<double> weight_;
+  std::vector<std::uint8_t> kind_;
+  std::vector<std::int32_t> down_;
+  std::vector<int> inflow_;
+  std::vector<bool> in_network_, mouth_;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> candidates_;
+};
+
+}  // namespace
+
+std::unique_ptr<BaseMesh> build_base_mesh(const PlanetDefinition& definition,
+                                          const BuildOptions& options) {
+  auto mesh = std::make_unique<BaseMesh>(definition);
+  Hierarchy& h = mesh->hierarchy;
+  h.make_octahedron(definition.seed);
+  std::vector<std::int32_t> level_tris;
+  for (std::int32_t t = 0; t < 8; ++t) level_tris.push_back(t);
+  const int threads = std::max(1, options.threads);
+  for (int level = 0; level < mesh->rules.mesh_level; ++level) {
+    // The neighbours' parents are all split: this only links partners.
+    for (std::int32_t t : level_tris) h.ensure_partner(t);
+    if (level == mesh->rules.base_level) {
+      mesh->river_faces = level_tris;
+      Classifier(*mesh, level_tris).run();
+    }
+    std::vector<std::int32_t> diamonds;
+    for (std::int32_t t : level_tris) {
+      if (h.tris[static_cast<std::size_t>(t)].nb[0] > t) diamonds.push_back(t);
+    }
+    // Each split is a pure function of its diamond: compute them in parallel, link in order.
+    std::vector<SplitResult> splits(diamonds.size());
+    auto work = [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) splits[i] = h.compute_split(diamonds[i]);
+    };
+    if (threads == 1 || diamonds.size() < 256) {
+      work(0, diamonds.size());
+    } else {
+      std::vector<std::thread> pool;
+      const std::size_t chunk = (diamonds.size() + static_cast<std::size_t>(threads) - 1) /
+                                static_cast<std::size_t>(threads);
+      for (std::size_t begin = 0; begin < diamonds.size(); begin += chunk) {
+        pool.emplace_back(work, begin, std::min(diamonds.size(), begin + chunk));
+      }
+      for (std::thread& t : pool) t.join();
+    }
+    for (std::size_t i = 0; i < diamonds.size(); ++i) h.apply_split(diamonds[i], splits[i]);
+    std::vector<std::int32_t> next;
+    next.reserve(level_tris.size() * 2);
+    for (std::int32_t t : level_tris) {
+      next.push_back(h.tris[static_cast<std::size_t>(t)].child[0]);
+      next.push_back(h.tris[static_cast<std::size_t>(t)].child[1]);
+    }
+    level_tris = std::move(next);
+  }
+  for (std::int32_t t : level_tris) h.ensure_partner(t);
+  mesh->leaves = std::move(level_tris);
+  mesh->stats.river_faces = static_cast<int>(mesh->river_faces.size());
+  mesh->stats.mesh_faces = static_cast<int>(mesh->leaves.size());
+  return mesh;
+}
+
+std::string BaseMesh::hash() const {
+  EVP_MD_CTX* context = EVP_MD_CTX_new();
+  EVP_DigestInit_ex(context, EVP_sha256(), nullptr);
+  auto feed = [&](const void* data, std::size_t size) { EVP_DigestUpdate(context, data, size); };
+  for (const Vertex& v : hierarchy.vertices) {
+    feed(v.p.data(), sizeof(double) * 3);
+    feed(&v.seed, sizeof v.seed);
+    feed(&v.ground, sizeof v.ground);
+    feed(&v.water, sizeof v.water);
+    feed(v.tangent.data(), sizeof(float) * 3);
+    feed(&v.flags, 1);
+    feed(&v.detail, sizeof v.detail);
+  }
+  for (const Tri& t : hierarchy.tris) {
+    feed(t.v.data(), sizeof(std::uint32_t) * 3);
+    feed(t.nb.data(), sizeof(std::int32_t) * 3);
+    feed(t.child.data(), sizeof(std::int32_t) * 2);
+    feed(t.edge.data(), 3);
+    feed(&t.face, 1);
+  }
+  std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
+  unsigned int length = 0;
+  EVP_DigestFinal_ex(context, digest.data(), &length);
+  EVP_MD_CTX_free(context);
+  std::string hex;
+  for (unsigned int i = 0; i < length; ++i) {
+    std::array<char, 3> byte{};
+    std::snprintf(byte.data(), byte.size(), "%02x", digest[i]);
+    hex += byte.data();
+  }
+  return hex;
+}
+
+}  // namespace planet

@@ -1,0 +1,218 @@
+#include "planet/definition.hpp"
+
+#include <openssl/evp.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+namespace planet {
+namespace {
+
+// One row per numeric field: where it lives, its accepted closed range, and whether a bound is
+// exclusive. One table drives parsing, validation and the canonical form, so they cannot drift.
+struct NumberField {
+  const char* name;
+  double PlanetDefinition::*member;
+  double lo, hi;
+  bool lo_open;
+};
+struct DetailField {
+  const char* name;
+  double DetailParams::*member;
+  double lo, hi;
+  bool lo_open;
+};
+
+const std::vector<NumberField>& number_fields() {
+  static const std::vector<NumberField> table = {
+      {"radius", &PlanetDefinition::radius, 1000.0, 1e8, false},
+      {"flattening", &PlanetDefinition::flattening, 0.0, 0.1, false},
+      {"land_fraction", &PlanetDefinition::land_fraction, 0.01, 0.95, false},
+      {"sea_level", &PlanetDefinition::sea_level, -10000.0, 10000.0, false},
+      {"sea_depth", &PlanetDefinition::sea_depth, 0.0, 20000.0, true},
+      {"max_river_altitude", &PlanetDefinition::max_river_altitude, 0.0, 20000.0, true},
+      {"max_mountain_altitude", &PlanetDefinition::max_mountain_altitude, 0.0, 30000.0, true},
+      {"river_depth", &PlanetDefinition::river_depth, 0.0, 2000.0, true},
+      {"min_river_length", &PlanetDefinition::min_river_length, 0.0, 1e7, false},
+      {"min_river_slope", &PlanetDefinition::min_river_slope, 0.0, 1.0, true},
+      {"min_riverbed_slope", &PlanetDefinition::min_riverbed_slope, 0.0, 10.0, true},
+      {"min_slope_near_river", &PlanetDefinition::min_slope_near_river, 0.0, 1.0, false},
+      {"riverbed_edge_height", &PlanetDefinition::riverbed_edge_height, 0.0, 1000.0, false},
+      {"max_ground_slope", &PlanetDefinition::max_ground_slope, 0.0, 10.0, true},
+      {"mountain_slope", &PlanetDefinition::mountain_slope, 0.0, 1.0, false},
+      {"finest_edge", &PlanetDefinition::finest_edge, 0.01, 100000.0, false},
+  };
+  return table;
+}
+
+const std::vector<DetailField>& detail_fields() {
+  static const std::vector<DetailField> table = {
+      {"amplitude", &DetailParams::amplitude, 0.0, 5000.0, false},
+      {"wavelength", &DetailParams::wavelength, 1.0, 1e6, false},
+      {"hurst", &DetailParams::hurst, 0.0, 1.5, true},
+      {"lacunarity", &DetailParams::lacunarity, 1.5, 4.0, false},
+  };
+  return table;
+}
+
+std::string format_number(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+Result<double> read_number(const nlohmann::json& value, const std::string& pointer, double lo,
+                           double hi, bool lo_open) {
+  if (!value.is_number()) return Error{"must be a number", pointer};
+  const double v = value.get<double>();
+  if (!std::isfinite(v) || v < lo || v > hi || (lo_open && v == lo)) {
+    return Error{"must be " + std::string(lo_open ? "above " : "at least ") + format_number(lo) +
+                     " and at most " + format_number(hi) + ", got " + format_number(v),
+                 pointer};
+  }
+  return v;
+}
+
+Result<int> read_int(const nlohmann::json& value, const std::string& pointer, int lo, int hi) {
+  if (!value.is_number_integer()) return Error{"must be an integer", pointer};
+  // Non-negative literals parse as unsigned: compare those without a signed conversion.
+  const bool above = value.is_number_unsigned()
+                         ? value.get<std::uint64_t>() > static_cast<std::uint64_t>(hi)
+                         : value.get<std::int64_t>() > hi;
+  const bool below = !value.is_number_unsigned() && value.get<std::int64_t>() < lo;
+  if (above || below ||
+      (value.is_number_unsigned() && value.get<std::uint64_t>() < static_cast<std::uint64_t>(lo))) {
+    return Error{"must be between " + std::to_string(lo) + " and " + std::to_string(hi), pointer};
+  }
+  return static_cast<int>(value.get<std::int64_t>());
+}
+
+}  // namespace
+
+int PlanetDefinition::base_levels() const {
+  // Bisection of the octahedron doubles the face count per level: 8·2^k faces.
+  const double k = std::log2(static_cast<double>(base_faces) / 8.0);
+  return std::clamp(static_cast<int>(std::lround(k)), 3, 13);
+}
+
+Result<PlanetDefinition> parse_planet(const nlohmann::json& document) {
+  if (!document.is_object()) return Error{"a planet definition is a JSON object", ""};
+  PlanetDefinition d;
+  for (auto it = document.begin(); it != document.end(); ++it) {
+    const std::string& key = it.key();
+    const std::string pointer = "/" + key;
+    const nlohmann::json& value = it.value();
+    if (key == "seed") {
+      // Seeds are 64-bit unsigned; a negative or fractional number is a mistake, not a seed.
+      if (!value.is_number_unsigned() &&
+          !(value.is_number_integer() && value.get<std::int64_t>() >= 0)) {
+        return Error{"must be an integer between 0 and 18446744073709551615", pointer};
+      }
+      d.seed = value.get<std::uint64_t>();
+      continue;
+    }
+    if (key == "continents") {
+      Result<int> n = read_int(value, pointer, 1, 64);
+      if (!n) return n.error();
+      d.continents = *n;
+      continue;
+    }
+    if (key == "base_faces") {
+      Result<int> n = read_int(value, pointer, 64, 65536);
+      if (!n) return n.error();
+      d.base_faces = *n;
+      continue;
+    }
+    if (key == "detail") {
+      if (!value.is_object()) return Error{"must be an object", pointer};
+      for (auto jt = value.begin(); jt != value.end(); ++jt) {
+        const DetailField* field = nullptr;
+        for (const DetailField& f : detail_fields()) {
+          if (jt.key() == f.name) field = &f;
+        }
+        if (field == nullptr) return Error{"unknown field", pointer + "/" + jt.key()};
+        Result<double> v =
+            read_number(jt.value(), pointer + "/" + jt.key(), field->lo, field->hi, field->lo_open);
+        if (!v) return v.error();
+        d.detail.*(field->member) = *v;
+      }
+      continue;
+    }
+    const NumberField* field = nullptr;
+    for (const NumberField& f : number_fields()) {
+      if (key == f.name) field = &f;
+    }
+    if (field == nullptr) return Error{"unknown field", pointer};
+    Result<double> v = read_number(value, pointer, field->lo, field->hi, field->lo_open);
+    if (!v) return v.error();
+    d.*(field->member) = *v;
+  }
+  // Relations between fields, each reported at the field that breaks it.
+  if (d.max_mountain_altitude < d.max_river_altitude) {
+    return Error{"must be at least max_river_altitude", "/max_mountain_altitude"};
+  }
+  if (d.sea_depth <= d.river_depth) {
+    return Error{"must exceed river_depth (river mouths lie below sea level)", "/sea_depth"};
+  }
+  if (d.max_mountain_altitude + d.detail.amplitude * 2.0 + d.sea_depth > 60000.0) {
+    return Error{"mountains, detail and ocean depth together span more than 60 km",
+                 "/max_mountain_altitude"};
+  }
+  if (d.continents * 8 > (8 << d.base_levels())) {
+    return Error{"more continents than an eighth of the base faces", "/continents"};
+  }
+  return d;
+}
+
+Result<PlanetDefinition> parse_planet_text(std::string_view text) {
+  nlohmann::json document = nlohmann::json::parse(text, nullptr, false);
+  if (document.is_discarded()) return Error{"malformed JSON", ""};
+  return parse_planet(document);
+}
+
+Result<PlanetDefinition> load_planet_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Error{"cannot read " + path, ""};
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse_planet_text(text.str());
+}
+
+nlohmann::json canonical_json(const PlanetDefinition& d) {
+  nlohmann::json out = nlohmann::json::object();
+  out["seed"] = d.seed;
+  out["continents"] = d.continents;
+  out["base_faces"] = d.base_faces;
+  for (const NumberField& f : number_fields()) out[f.name] = d.*(f.member);
+  nlohmann::json detail = nlohmann::json::object();
+  for (const DetailField& f : detail_fields()) detail[f.name] = d.detail.*(f.member);
+  out["detail"] = std::move(detail);
+  return out;
+}
+
+std::string canonical_text(const PlanetDefinition& d) {
+  return canonical_json(d).dump();
+}
+
+std::string planet_id(const PlanetDefinition& d) {
+  const std::string text = canonical_text(d);
+  std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
+  unsigned int length = 0;
+  EVP_Digest(text.data(), text.size(), digest.data(), &length, EVP_sha256(), nullptr);
+  std::string hex;
+  for (unsigned int i = 0; i < length; ++i) {
+    std::array<char, 3> byte{};
+    std::snprintf(byte.data(), byte.size(), "%02x", digest[i]);
+    hex += byte.data();
+  }
+  return hex;
+}
+
+}  // namespace planet

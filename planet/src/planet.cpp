@@ -1,0 +1,166 @@
+#include "planet/planet.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "gradient_noise.hpp"
+
+namespace planet {
+
+std::string_view surface_name(SurfaceType type) {
+  switch (type) {
+    case SurfaceType::sea:
+      return "sea";
+    case SurfaceType::coast:
+      return "coast";
+    case SurfaceType::land:
+      return "land";
+    case SurfaceType::river:
+      return "river";
+  }
+  return "land";
+}
+
+Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options)
+    : base_(build_base_mesh(definition, options)),
+      geodesy_(definition.radius, definition.flattening),
+      id_(planet_id(definition)) {}
+
+std::shared_ptr<const Planet> Planet::create(const PlanetDefinition& definition,
+                                             const BuildOptions& options) {
+  return std::shared_ptr<const Planet>(new Planet(definition, options));
+}
+
+Result<std::shared_ptr<const Planet>> Planet::from_json(const nlohmann::json& document) {
+  Result<PlanetDefinition> definition = parse_planet(document);
+  if (!definition) return definition.error();
+  return create(*definition);
+}
+
+int Planet::level_for_spacing(double spacing) const {
+  const Rules& r = rules();
+  int level = r.mesh_level;
+  while (level < r.max_level && r.edge_length(level) > 2.0 * spacing) ++level;
+  return level;
+}
+
+double Planet::octaves_for_spacing(double spacing) const {
+  const DetailParams& d = definition().detail;
+  // Octave k has wavelength λ/r^k; it is visible while that is at least two samples.
+  const double n =
+      std::log(d.wavelength / (2.0 * std::max(spacing, 1e-6))) / std::log(d.lacunarity);
+  return std::clamp(n + 1.0, 0.0, 40.0);
+}
+
+double Planet::ground_spacing(int z, int cells) const {
+  return std::numbers::pi * definition().radius / (std::ldexp(1.0, z) * cells);
+}
+
+terrain::Interval Planet::elevation_range() const {
+  const PlanetDefinition& d = definition();
+  const double r = std::pow(d.detail.lacunarity, -d.detail.hurst);
+  const double detail_max = d.detail.amplitude / (1.0 - r);
+  return {static_cast<float>(std::floor(d.sea_level - d.sea_depth)),
+          static_cast<float>(std::ceil(d.sea_level + d.max_mountain_altitude + detail_max))};
+}
+
+double Planet::detail(const Vec3d& p, double octaves) const {
+  const DetailParams& d = definition().detail;
+  const double radius = definition().radius;
+  double sum = 0.0, amplitude = d.amplitude, frequency = radius / d.wavelength;
+  const double gain = std::pow(d.lacunarity, -d.hurst);
+  const auto seed = static_cast<std::uint32_t>(mix64(definition().seed ^ 0x64657461696cULL));
+  for (int k = 0; k < 40 && k < octaves; ++k) {
+    const double weight = std::min(1.0, octaves - k);  // the last octave fades in (geomorphing)
+    const double s = detail::gradient3(p[0] * frequency, p[1] * frequency, p[2] * frequency,
+                                       seed + static_cast<std::uint32_t>(k) * 0x9e3779b9U);
+    sum += weight * amplitude * 0.5 * (1.0 + std::clamp(s, -1.0, 1.0));
+    amplitude *= gain;
+    frequency *= d.lacunarity;
+  }
+  return sum;
+}
+
+Sampler::Sampler(std::shared_ptr<const Planet> planet)
+    : planet_(std::move(planet)), hierarchy_(planet_->base_mesh().hierarchy) {}
+
+void Sampler::trim() {
+  hierarchy_ = planet_->base_mesh().hierarchy;
+}
+
+PointSample Sampler::sample(double latitude, double longitude) {
+  return sample(latitude, longitude, 0.01);
+}
+
+PointSample Sampler::sample(double latitude, double longitude, double spacing) {
+  if (longitude >= 180.0) longitude -= 360.0;  // one direction for the antimeridian
+  const Vec3d p = planet_->geodesy().direction(std::clamp(latitude, -90.0, 90.0), longitude);
+  return at(p, planet_->level_for_spacing(spacing), planet_->octaves_for_spacing(spacing));
+}
+
+PointSample Sampler::at(const Vec3d& p, int level, double octaves) {
+  // Bounded memory for long-lived samplers: start again from the base mesh now and then.
+  if (hierarchy_.tris.size() > (std::size_t{1} << 23)) trim();
+  const std::int32_t t = hierarchy_.locate(p, level);
+  const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(t)];
+  const Vertex& x = hierarchy_.vertices[tri.v[0]];
+  const Vertex& y = hierarchy_.vertices[tri.v[1]];
+  const Vertex& z = hierarchy_.vertices[tri.v[2]];
+  const std::array<double, 3> w = barycentric(x.p, y.p, z.p, p);
+  PointSample out;
+  out.level = level;
+  out.river_distance = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (tri.edge[k] != EdgeType::river) continue;
+    const Vec3d& u = hierarchy_.vertices[tri.v[k]].p;
+    const Vec3d& v = hierarchy_.vertices[tri.v[(k + 1) % 3]].p;
+    // Distance to the great-circle arc u–v: to its circle where p projects inside the arc,
+    // else to the nearer end.
+    const Vec3d n = normalize(cross(u, v));
+    const Vec3d q = sub(p, scale(n, dot(p, n)));
+    const bool inside = dot(cross(u, q), n) >= 0 && dot(cross(q, v), n) >= 0;
+    const double arc =
+        inside ? std::asin(std::min(1.0, std::abs(dot(p, n)))) : std::min(angle(p, u), angle(p, v));
+    out.river_distance = std::min(out.river_distance, arc * planet_->definition().radius);
+  }
+  out.ground = w[0] * x.ground + w[1] * y.ground + w[2] * z.ground;
+  // River corners count as river features too: a channel around a vertex reaches into the
+  // triangles that touch the river only there.
+  double channel = 0.0;
+  for (const Vertex* v : {&x, &y, &z}) {
+    if ((v->flags & kRiver) == 0 || !(v->water > v->ground)) continue;
+    out.river_distance =
+        std::min(out.river_distance, angle(p, v->p) * planet_->definition().radius);
+    channel = std::max(channel, (v->water - v->ground) / planet_->definition().min_riverbed_slope);
+  }
+  const double water = w[0] * x.water + w[1] * y.water + w[2] * z.water;
+  const double weight = w[0] * x.detail + w[1] * y.detail + w[2] * z.detail;
+  if (weight > 0.0 && octaves > 0.0) out.ground += weight * planet_->detail(p, octaves);
+  const terrain::Interval range = planet_->elevation_range();
+  out.ground = std::clamp(out.ground, static_cast<double>(range.lo), static_cast<double>(range.hi));
+  // A sea face at exactly sea level is still sea; on land only water above the ground counts.
+  const bool sea_face = tri.face == FaceType::sea;
+  // On land, water stands only in a river's channel (half as wide as the river is deep over the
+  // riverbed slope, §5.3's s_rb): three river vertices around a triangle that no split has yet
+  // separated by a ridge do not make a lake.
+  const bool submerged =
+      sea_face ? water >= out.ground : water > out.ground && out.river_distance <= channel;
+  if (submerged) {
+    out.water = water;
+    out.type = sea_face ? SurfaceType::sea : SurfaceType::river;
+  } else {
+    out.water = out.ground;
+    const bool coast = ((x.flags | y.flags | z.flags) & kCoast) != 0;
+    out.type = coast ? SurfaceType::coast : SurfaceType::land;
+  }
+  return out;
+}
+
+nlohmann::json sample_json(double latitude, double longitude, const PointSample& s) {
+  return {{"latitude", latitude}, {"longitude", longitude},       {"ground", s.ground},
+          {"water", s.water},     {"type", surface_name(s.type)}, {"level", s.level}};
+}
+
+}  // namespace planet

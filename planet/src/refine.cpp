@@ -1,0 +1,397 @@
+// Split rules (Derzapf et al. 2011 §3.2, §4.1, §5.3) and the lazily refined hierarchy.
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "planet/mesh.hpp"
+
+namespace planet {
+
+Vec3d normalize(const Vec3d& a) {
+  const double n = std::sqrt(dot(a, a));
+  return {a[0] / n, a[1] / n, a[2] / n};
+}
+
+double angle(const Vec3d& a, const Vec3d& b) {
+  return std::atan2(std::sqrt(dot(cross(a, b), cross(a, b))), dot(a, b));
+}
+
+std::array<double, 3> barycentric(const Vec3d& x, const Vec3d& y, const Vec3d& z, const Vec3d& p) {
+  const double bx = det(p, y, z), by = det(x, p, z), bz = det(x, y, p);
+  const double sum = bx + by + bz;
+  return {bx / sum, by / sum, bz / sum};
+}
+
+Rules::Rules(const PlanetDefinition& definition) : def(definition) {
+  radius = def.radius;
+  base_level = def.base_levels();
+  mesh_level = base_level + 2;
+  max_level = mesh_level;
+  while (max_level < 60 && edge_length(max_level) > def.finest_edge) ++max_level;
+}
+
+double Rules::edge_length(int level) const {
+  // The octahedron's edges span a quarter circle; bisection shortens them by √2 per level.
+  return radius * std::numbers::pi / 2.0 * std::exp2(-0.5 * level);
+}
+
+double Rules::roughness(double length) const {
+  return def.detail.amplitude * std::pow(length / def.detail.wavelength, def.detail.hurst);
+}
+
+namespace {
+
+bool wet(const Vertex& v) {
+  return (v.flags & (kRiver | kCoast | kSea)) != 0 || v.water > v.ground;
+}
+
+// Unit vector in the tangent plane at p closest to direction v (zero if v is radial).
+std::array<float, 3> tangent_at(const Vec3d& p, const Vec3d& v) {
+  const Vec3d t = sub(v, scale(p, dot(v, p)));
+  const double n = std::sqrt(dot(t, t));
+  if (!(n > 0.0)) return {0.0f, 0.0f, 0.0f};
+  return {static_cast<float>(t[0] / n), static_cast<float>(t[1] / n), static_cast<float>(t[2] / n)};
+}
+
+Vec3d to_vec(const std::array<float, 3>& t) {
+  return {static_cast<double>(t[0]), static_cast<double>(t[1]), static_cast<double>(t[2])};
+}
+
+// The split of diamond (a, b; t, d) with a, b in canonical order (see split_diamond).
+SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const Vertex& b,
+                          const Vertex& t, const Vertex& d, EdgeType base, FaceType face_t,
+                          FaceType face_d) {
+  const PlanetDefinition& def = rules.def;
+  SplitResult r{};
+  Vertex& m = r.m;
+  m.seed = mix64(a.seed + b.seed);
+  Random random(m.seed);
+  const double xi = random.uniform(0.25, 0.75), eta = random.uniform(0.25, 0.75);
+  const double g1 = random.uniform(), g2 = random.uniform();
+  r.half_a = r.half_b = base;
+  r.spoke_t = face_t == FaceType::sea ? EdgeType::sea : EdgeType::land;
+  r.spoke_d = face_d == FaceType::sea ? EdgeType::sea : EdgeType::land;
+
+  const Vec3d mid = normalize(add(a.p, b.p));
+  // Keeps the new vertex where the four new triangles are all positively oriented with room to
+  // spare (the diamond's kernel), pulling it towards the base's midpoint (which always is) if
+  // needed: the hierarchy stays a valid triangulation, so rivers (edges) can never cross.
+  const double area_t = det(a.p, b.p, t.p), area_d = det(b.p, a.p, d.p);
+  const double margin = 0.05 * std::min(area_t, area_d);
+  auto place = [&](const Vec3d& raw) {
+    for (double s : {1.0, 0.5, 0.25, 0.125}) {
+      const Vec3d q = normalize(add(mid, scale(sub(raw, mid), s)));
+      if (det(t.p, a.p, q) > margin && det(b.p, t.p, q) > margin && det(d.p, b.p, q) > margin &&
+          det(a.p, d.p, q) > margin) {
+        return q;
+      }
+    }
+    return mid;
+  };
+  // Eq. 2: a randomised weighted sum of the diamond's vertices, lifted to the sphere (eq. 1).
+  const double wa = (1 - eta) * xi, wt = (1 - eta) * (1 - xi), wd = eta * xi, wb = eta * (1 - xi);
+  const Vec3d eq2 =
+      normalize(add(add(scale(a.p, wa), scale(t.p, wt)), add(scale(d.p, wd), scale(b.p, wb))));
+  const double l_ab = rules.radius * angle(a.p, b.p);
+
+  if (level < rules.base_level) {  // base shape: geometry only; §4 labels it afterwards
+    m.p = place(eq2);
+    m.flags = kSea;
+    m.ground = def.sea_level - def.sea_depth;
+    m.water = def.sea_level;
+    return r;
+  }
+
+  switch (base) {
+    case EdgeType::sea: {
+      m.p = mid;  // §5.3: sea vertices sit at the centre of the edge
+      m.flags = kSea;
+      m.water = def.sea_level;
+      m.ground = 0.5 * (a.ground + b.ground) + 0.3 * rules.roughness(l_ab) * (2.0 * g1 - 1.0);
+      m.ground = std::clamp(m.ground, def.sea_level - def.sea_depth, def.sea_level - 1.0);
+      return r;
+    }
+    case EdgeType::coast: {
+      m.p = place(eq2);
+      m.flags = kCoast;
+      m.ground = m.water = def.sea_level;
+      return r;
+    }
+    case EdgeType::river: {
+      // Eq. 7: between the two apexes; eq. 8–9 bias ξ towards the Hermite midpoint of the river
+      // (tangents point downstream; ev1 of eq. 9 is the upstream end).
+      const bool a_up = a.water > b.water || (a.water == b.water && a.seed < b.seed);
+      const Vertex& up = a_up ? a : b;
+      const Vertex& down = a_up ? b : a;
+      double x = xi;
+      if (l_ab < def.min_river_length) {
+        const Vec3d vs = add(scale(add(up.p, down.p), 0.5),
+                             scale(sub(to_vec(up.tangent), to_vec(down.tangent)),
+                                   std::sqrt(dot(sub(up.p, down.p), sub(up.p, down.p))) / 4.0));
+        const Vec3d td = sub(d.p, t.p);
+        const double xs = dot(sub(vs, t.p), td) / dot(td, td);
+        x = std::clamp(xs + (xi - 0.5) * 0.5, 0.25, 0.75);
+      }
+      m.p = place(normalize(add(scale(t.p, 1.0 - x), scale(d.p, x))));
+      m.flags = kLand | kRiver;
+      m.ground = 0.5 * (a.ground + b.ground);
+      m.water = 0.5 * (a.water + b.water);
+      m.tangent = tangent_at(
+          m.p,
+          add(add(to_vec(up.tangent), to_vec(down.tangent)),
+              scale(sub(down.p, up.p),
+                    2.0 / std::max(1e-300, std::sqrt(dot(sub(down.p, up.p), sub(down.p, up.p)))))));
+      return r;
+    }
+    case EdgeType::land:
+      break;
+  }
+
+  // A continent vertex (§5.3 step 6).
+  m.p = place(eq2);
+  const Vertex* corner[4] = {&a, &b, &t, &d};
+  double length[4];
+  for (int i = 0; i < 4; ++i) length[i] = rules.radius * angle(m.p, corner[i]->p);
+  m.water = 0.25 * (a.water + b.water + t.water + d.water);
+
+  // A new river arm: an edge longer than l_rmin may gain a spring that flows to the lowest
+  // neighbouring river vertex, if it fits below every non-river neighbour (eq. 10).
+  if (l_ab > def.min_river_length) {
+    int river = -1;
+    for (int i = 0; i < 4; ++i) {
+      if ((corner[i]->flags & kRiver) != 0 &&
+          (river < 0 || corner[i]->water < corner[river]->water)) {
+        river = i;
+      }
+    }
+    if (river >= 0) {
+      const double lower = corner[river]->water + length[river] * def.min_river_slope;
+      double upper = def.sea_level + def.max_river_altitude;
+      for (int i = 0; i < 4; ++i) {
+        if (wet(*corner[i])) continue;
+        upper = std::min(
+            upper, corner[i]->ground -
+                       std::min(length[i] * def.min_riverbed_slope,
+                                def.riverbed_edge_height + length[i] * def.min_slope_near_river));
+      }
+      if (lower < upper) {
+        m.flags = kLand | kRiver;
+        m.ground = m.water = lower + (upper - lower) * 0.25 * g1;  // a spring: water = ground
+        m.tangent = tangent_at(m.p, sub(corner[river]->p, m.p));
+        EdgeType* to[4] = {&r.half_a, &r.half_b, &r.spoke_t, &r.spoke_d};
+        *to[river] = EdgeType::river;
+        return r;
+      }
+    }
+  }
+
+  m.flags = kLand;
+  m.detail = 1.0f;
+  // The estimate: eq. 5 for a mountain vertex between rivers, else the surface under the new
+  // position displaced by the fractal's roughness at this edge length.
+  double estimate = wa * a.ground + wt * t.ground + wd * d.ground + wb * b.ground +
+                    rules.roughness(l_ab) * (2.0 * g1 - 1.0);
+  if (wet(a) && wet(b)) {
+    int highest = -1;
+    for (int i = 0; i < 4; ++i) {
+      if ((corner[i]->flags & (kRiver | kCoast)) != 0 &&
+          (highest < 0 || corner[i]->ground > corner[highest]->ground)) {
+        highest = i;
+      }
+    }
+    if (highest >= 0) {
+      estimate = corner[highest]->ground + def.mountain_slope * length[highest] * g2;
+    }
+  }
+  // Eq. 11: above every river or water neighbour by the riverbed rules; eq. 12: within the
+  // ground slope of the others. Where they conflict, the river's valley wins.
+  double lo = -std::numeric_limits<double>::infinity();
+  double hi = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 4; ++i) {
+    const Vertex& c = *corner[i];
+    if (wet(c)) {
+      lo = std::max(
+          lo, std::min(c.ground + length[i] * def.min_riverbed_slope,
+                       c.water + def.riverbed_edge_height + length[i] * def.min_slope_near_river));
+    } else {
+      lo = std::max(lo, c.ground - length[i] * def.max_ground_slope);
+      hi = std::min(hi, c.ground + length[i] * def.max_ground_slope);
+    }
+  }
+  hi = std::min(hi, def.sea_level + def.max_mountain_altitude);
+  m.ground = lo > hi ? lo : std::clamp(estimate, lo, hi);
+  // Dry: the water surface stays below the ground, so a river's water meets its banks inside
+  // the triangles next to it instead of flooding them.
+  // The water surface of a dry vertex only says how far a neighbour's water reaches towards it:
+  // one riverbed slope (s_rb) per metre of edge below the ground makes a river of depth d end
+  // about d / s_rb from its vertex at every level, instead of flooding a fixed fraction of
+  // ever larger triangles at coarse levels.
+  m.water = std::min(m.water,
+                     m.ground - std::max(def.riverbed_edge_height, l_ab * def.min_riverbed_slope));
+  return r;
+}
+
+}  // namespace
+
+SplitResult split_diamond(const Rules& rules, int level, const Vertex& a, const Vertex& b,
+                          const Vertex& t, const Vertex& d, EdgeType base, FaceType face_t,
+                          FaceType face_d) {
+  // Canonical roles: ev1 is the end with the smaller seed (positions break a tie), so both
+  // triangles of a diamond compute the same vertex.
+  const bool swap = a.seed > b.seed || (a.seed == b.seed && a.p > b.p);
+  if (!swap) return split_ordered(rules, level, a, b, t, d, base, face_t, face_d);
+  SplitResult r = split_ordered(rules, level, b, a, d, t, base, face_d, face_t);
+  std::swap(r.half_a, r.half_b);
+  std::swap(r.spoke_t, r.spoke_d);
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Hierarchy
+
+void Hierarchy::make_octahedron(std::uint64_t seed) {
+  vertices.clear();
+  tris.clear();
+  const Vec3d axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (std::uint64_t i = 0; i < 6; ++i) {
+    Vertex v;
+    v.p = axes[i];
+    v.seed = mix64(seed * 6 + i);
+    vertices.push_back(v);
+  }
+  // Face index ((sx < 0)·2 + (sy < 0))·2 + (sz < 0): root_face relies on this order.
+  for (int sx = 0; sx < 2; ++sx) {
+    for (int sy = 0; sy < 2; ++sy) {
+      for (int sz = 0; sz < 2; ++sz) {
+        const auto x = static_cast<std::uint32_t>(sx), y = static_cast<std::uint32_t>(2 + sy),
+                   z = static_cast<std::uint32_t>(4 + sz);
+        Tri f;
+        // Counter-clockwise seen from outside when the octant's sign product is positive;
+        // the base is the equatorial edge, shared with the mirror face across the equator.
+        f.v = ((sx + sy + sz) % 2 == 0) ? std::array<std::uint32_t, 3>{x, y, z}
+                                        : std::array<std::uint32_t, 3>{y, x, z};
+        tris.push_back(f);
+      }
+    }
+  }
+  for (std::size_t f = 0; f < tris.size(); ++f) {
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t from = tris[f].v[static_cast<std::size_t>(k)];
+      const std::uint32_t to = tris[f].v[static_cast<std::size_t>((k + 1) % 3)];
+      for (std::size_t g = 0; g < tris.size(); ++g) {
+        for (int j = 0; j < 3; ++j) {
+          if (tris[g].v[static_cast<std::size_t>(j)] == to &&
+              tris[g].v[static_cast<std::size_t>((j + 1) % 3)] == from) {
+            tris[f].nb[static_cast<std::size_t>(k)] = static_cast<std::int32_t>(g);
+          }
+        }
+      }
+    }
+  }
+}
+
+std::int32_t Hierarchy::root_face(const Vec3d& p) const {
+  return ((p[0] < 0 ? 1 : 0) * 2 + (p[1] < 0 ? 1 : 0)) * 2 + (p[2] < 0 ? 1 : 0);
+}
+
+SplitResult Hierarchy::compute_split(std::int32_t t) const {
+  const Tri& T = tris[static_cast<std::size_t>(t)];
+  assert(T.nb[0] >= 0);
+  const Tri& P = tris[static_cast<std::size_t>(T.nb[0])];
+  return split_diamond(*rules_, T.level, vertices[T.v[0]], vertices[T.v[1]], vertices[T.v[2]],
+                       vertices[P.v[2]], T.edge[0], T.face, P.face);
+}
+
+void Hierarchy::apply_split(std::int32_t t, const SplitResult& s) {
+  const Tri T = tris[static_cast<std::size_t>(t)];
+  const std::int32_t p = T.nb[0];
+  const Tri P = tris[static_cast<std::size_t>(p)];
+  assert(P.v[0] == T.v[1] && P.v[1] == T.v[0] && T.child[0] < 0 && P.child[0] < 0);
+  const auto m = static_cast<std::uint32_t>(vertices.size());
+  vertices.push_back(s.m);
+  const auto n = static_cast<std::int32_t>(tris.size());
+  const std::int32_t tc0 = n, tc1 = n + 1, pc0 = n + 2, pc1 = n + 3;
+  const auto level = static_cast<std::uint8_t>(T.level + 1);
+  auto make = [&](std::array<std::uint32_t, 3> v, std::array<EdgeType, 3> e,
+                  std::array<std::int32_t, 3> nb, FaceType face, std::int32_t parent,
+                  std::uint8_t which) {
+    Tri c;
+    c.v = v;
+    c.edge = e;
+    c.nb = nb;
+    c.face = face;
+    c.parent = parent;
+    c.which = which;
+    c.level = level;
+    tris.push_back(c);
+  };
+  const std::uint32_t a = T.v[0], b = T.v[1], c = T.v[2], d = P.v[2];
+  make({c, a, m}, {T.edge[2], s.half_a, s.spoke_t}, {-1, pc1, tc1}, T.face, t, 0);
+  make({b, c, m}, {T.edge[1], s.spoke_t, s.half_b}, {-1, tc0, pc0}, T.face, t, 1);
+  make({d, b, m}, {P.edge[2], s.half_b, s.spoke_d}, {-1, tc1, pc1}, P.face, p, 0);
+  make({a, d, m}, {P.edge[1], s.spoke_d, s.half_a}, {-1, pc0, tc0}, P.face, p, 1);
+  tris[static_cast<std::size_t>(t)].child = {tc0, tc1};
+  tris[static_cast<std::size_t>(p)].child = {pc0, pc1};
+}
+
+void Hierarchy::ensure_partner(std::int32_t t) {
+  if (tris[static_cast<std::size_t>(t)].nb[0] >= 0) return;
+  const Tri T = tris[static_cast<std::size_t>(t)];
+  assert(T.parent >= 0);
+  // The base of child 0 is the parent's edge 2, of child 1 its edge 1; those edges' neighbours
+  // are always known, and the partner is that neighbour's child along the same edge.
+  const std::int32_t g = tris[static_cast<std::size_t>(T.parent)].nb[T.which == 0 ? 2u : 1u];
+  assert(g >= 0);
+  ensure_split(g);
+  const Tri& G = tris[static_cast<std::size_t>(g)];
+  int k = -1;
+  for (int j = 0; j < 3; ++j) {
+    if (G.v[static_cast<std::size_t>(j)] == T.v[1] &&
+        G.v[static_cast<std::size_t>((j + 1) % 3)] == T.v[0]) {
+      k = j;
+    }
+  }
+  assert(k == 1 || k == 2);
+  const std::int32_t partner = G.child[k == 2 ? 0u : 1u];
+  tris[static_cast<std::size_t>(t)].nb[0] = partner;
+  tris[static_cast<std::size_t>(partner)].nb[0] = t;
+}
+
+void Hierarchy::ensure_split(std::int32_t t) {
+  if (tris[static_cast<std::size_t>(t)].child[0] >= 0) return;
+  ensure_partner(t);
+  apply_split(t, compute_split(t));
+}
+
+std::int32_t Hierarchy::locate_child(std::int32_t t, const Vec3d& p) const {
+  const Tri& T = tris[static_cast<std::size_t>(t)];
+  const Tri& P = tris[static_cast<std::size_t>(T.nb[0])];
+  const Vec3d& m = vertices[tris[static_cast<std::size_t>(T.child[0])].v[2]].p;
+  const Vec3d& a = vertices[T.v[0]].p;
+  const Vec3d& b = vertices[T.v[1]].p;
+  const Vec3d& c = vertices[T.v[2]].p;
+  const Vec3d& d = vertices[P.v[2]].p;
+  // The four children fan around m in the order b, c, a, d (counter-clockwise); p lies in the
+  // sector between rays m→X and m→Y when it is left of the first and right of the second. The
+  // half-open tests give every point exactly one sector, decided by the same numbers in
+  // whichever tile asks.
+  const double lb = det(m, b, p), lc = det(m, c, p), la = det(m, a, p), ld = det(m, d, p);
+  if (lb >= 0 && lc < 0) return T.child[1];
+  if (lc >= 0 && la < 0) return T.child[0];
+  if (la >= 0 && ld < 0) return P.child[1];
+  if (ld >= 0 && lb < 0) return P.child[0];
+  return T.child[0];  // only p = ±m (or NaN) gets here
+}
+
+std::int32_t Hierarchy::locate(const Vec3d& p, int level) {
+  std::int32_t t = root_face(p);
+  while (tris[static_cast<std::size_t>(t)].level < level) {
+    ensure_split(t);
+    t = locate_child(t, p);
+  }
+  return t;
+}
+
+}  // namespace planet

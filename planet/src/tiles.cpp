@@ -1,0 +1,224 @@
+#include "planet/tiles.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "terrain/draco_mesh.hpp"
+#include "terrain/quantized_mesh.hpp"
+
+namespace planet {
+namespace {
+
+using terrain::HeightTile;
+using terrain::SampleLayout;
+using terrain::TileAddress;
+using terrain::TileFormat;
+using terrain::TileRequest;
+using terrain::TileScheme;
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+TileRequest request_for(const TileAddress& address, TileFormat format,
+                        const terrain::ProductOptions& options) {
+  if (terrain::format_info(format).mesh) {
+    return {TileScheme::geographic, address, SampleLayout::cell_corners, options.grid - 1, 0};
+  }
+  return {TileScheme::geographic, address, SampleLayout::cell_centres, options.size,
+          options.border ? 1 : 0};
+}
+
+// Rectangles of every tile at levels from_z … to_z, or of the descendants of one tile.
+std::vector<std::vector<terrain::AvailabilityRectangle>> everything(int from_z, int to_z,
+                                                                    const TileAddress* within) {
+  std::vector<std::vector<terrain::AvailabilityRectangle>> levels;
+  for (int z = from_z; z <= to_z; ++z) {
+    terrain::AvailabilityRectangle a{0, 0, (std::int64_t{2} << z) - 1, (std::int64_t{1} << z) - 1};
+    if (within != nullptr) {
+      const int k = z - within->z;
+      a = {within->x << k, within->y << k, ((within->x + 1) << k) - 1, ((within->y + 1) << k) - 1};
+    }
+    levels.push_back({a});
+  }
+  return levels;
+}
+
+}  // namespace
+
+PlanetTiles::PlanetTiles(std::shared_ptr<const Planet> planet) : sampler_(std::move(planet)) {}
+
+int PlanetTiles::max_zoom() {
+  return terrain::max_zoom(TileScheme::geographic);
+}
+
+terrain::ProductConstants PlanetTiles::constants_at(int z) const {
+  terrain::ProductConstants c;
+  const terrain::Interval range = planet().elevation_range();
+  c.gray16 = terrain::gray16_encoding_for(range);
+  const double span = static_cast<double>(range.hi) - range.lo;
+  c.edge_quantum = terrain::edge_quantum_for(span);
+  c.position_quantum = terrain::position_quantum_for(
+      std::numbers::pi * planet().definition().radius / std::ldexp(1.0, z), span);
+  c.max_useful_zoom[static_cast<int>(TileScheme::geographic)] = max_zoom();
+  return c;
+}
+
+terrain::Status PlanetTiles::validate(const TileAddress& address, TileFormat format,
+                                      const terrain::ProductOptions& options) const {
+  if (terrain::Status s = terrain::validate_request(request_for(address, format, options)); !s) {
+    return s;
+  }
+  if (terrain::format_info(format).mesh && options.max_error &&
+      !(*options.max_error >= 0.0 && *options.max_error <= 1e6)) {
+    return Error{"max_error must be between 0 and 1e6 metres", "/max_error"};
+  }
+  return terrain::Ok{};
+}
+
+Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
+                                         std::vector<std::uint8_t>* submerged) {
+  if (request.scheme != TileScheme::geographic) {
+    return Error{"planets are tiled in the geographic scheme only", "/scheme"};
+  }
+  if (terrain::Status valid = terrain::validate_request(request); !valid) return valid.error();
+  const Planet& world = planet();
+  HeightTile tile;
+  tile.scheme = request.scheme;
+  tile.address = request.address;
+  tile.layout = request.layout;
+  tile.cells = request.cells;
+  tile.border = request.border;
+  tile.width = tile.height = request.layout == SampleLayout::cell_centres
+                                 ? request.cells + 2 * request.border
+                                 : request.cells + 1;
+  tile.world = {-180.0, -90.0, 180.0, 90.0};
+  const TileAddress& a = request.address;
+  const double size = 180.0 / std::ldexp(1.0, a.z);  // degrees per tile, both ways
+  tile.bounds = {-180.0 + static_cast<double>(a.x) * size, -90.0 + static_cast<double>(a.y) * size,
+                 -180.0 + static_cast<double>(a.x + 1) * size,
+                 -90.0 + static_cast<double>(a.y + 1) * size};
+  tile.ground_spacing = world.ground_spacing(a.z, request.cells);
+  const int level = world.level_for_spacing(tile.ground_spacing);
+  const double octaves = world.octaves_for_spacing(tile.ground_spacing);
+
+  // One ring of samples beyond the tile for central-difference slopes: a shared sample's slope
+  // is then computed from the same neighbours in every tile that holds it.
+  const int n = tile.width, ext = n + 2;
+  std::vector<double> sin_lon(static_cast<std::size_t>(ext)), cos_lon(sin_lon.size());
+  std::vector<double> lon_deg(sin_lon.size());
+  for (int c = 0; c < ext; ++c) {
+    double lon = tile.sample_crs_x(c - 1);
+    lon_deg[static_cast<std::size_t>(c)] = lon;
+    if (lon >= 180.0) lon -= 360.0;  // the antimeridian is one direction, seen from either side
+    if (lon < -180.0) lon += 360.0;
+    sin_lon[static_cast<std::size_t>(c)] = std::sin(lon * kDegree);
+    cos_lon[static_cast<std::size_t>(c)] = std::cos(lon * kDegree);
+  }
+  if (sampler_.cached_triangles() > (std::size_t{1} << 22)) sampler_.trim();
+  std::vector<double> ground(static_cast<std::size_t>(ext) * static_cast<std::size_t>(ext));
+  std::vector<std::uint8_t> wet(ground.size());
+  std::vector<double> lat_deg(static_cast<std::size_t>(ext));
+  for (int r = 0; r < ext; ++r) {
+    const double lat = std::clamp(tile.sample_crs_y(r - 1), -90.0, 90.0);
+    lat_deg[static_cast<std::size_t>(r)] = lat;
+    const double s = std::sin(lat * kDegree), c = std::cos(lat * kDegree);
+    for (int col = 0; col < ext; ++col) {
+      const Vec3d p = world.geodesy().direction(s, c, sin_lon[static_cast<std::size_t>(col)],
+                                                cos_lon[static_cast<std::size_t>(col)]);
+      const PointSample sample = sampler_.at(p, level, octaves);
+      const std::size_t at = static_cast<std::size_t>(r) * static_cast<std::size_t>(ext) +
+                             static_cast<std::size_t>(col);
+      ground[at] = sample.ground;
+      wet[at] = sample.type == SurfaceType::sea || sample.type == SurfaceType::river ? 1 : 0;
+    }
+  }
+  const auto count = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+  tile.elevation.resize(count);
+  tile.slope_east.resize(count);
+  tile.slope_north.resize(count);
+  tile.scene_x.resize(count);
+  tile.scene_y.resize(count);
+  if (submerged != nullptr) submerged->resize(count);
+  const double radius = world.definition().radius;
+  const double step_x = (tile.sample_crs_x(1) - tile.sample_crs_x(0)) * kDegree;
+  const double step_y = (tile.sample_crs_y(0) - tile.sample_crs_y(1)) * kDegree;
+  for (int r = 0; r < n; ++r) {
+    const double lat = lat_deg[static_cast<std::size_t>(r + 1)];
+    const double east_metres = 2.0 * step_x * radius * std::cos(lat * kDegree);
+    for (int c = 0; c < n; ++c) {
+      const std::size_t at = tile.index(c, r);
+      const std::size_t e = static_cast<std::size_t>(r + 1) * static_cast<std::size_t>(ext) +
+                            static_cast<std::size_t>(c + 1);
+      tile.elevation[at] = static_cast<float>(ground[e]);
+      tile.slope_east[at] = east_metres > 1e-9
+                                ? static_cast<float>((ground[e + 1] - ground[e - 1]) / east_metres)
+                                : 0.0f;
+      tile.slope_north[at] = static_cast<float>(
+          (ground[e - static_cast<std::size_t>(ext)] - ground[e + static_cast<std::size_t>(ext)]) /
+          (2.0 * step_y * radius));
+      tile.scene_x[at] = radius * lon_deg[static_cast<std::size_t>(c + 1)] * kDegree;
+      tile.scene_y[at] = radius * lat * kDegree;
+      if (submerged != nullptr) (*submerged)[at] = wet[e];
+    }
+  }
+  return tile;
+}
+
+Result<HeightTile> PlanetTiles::height_tile(const TileRequest& request) {
+  return evaluate(request, nullptr);
+}
+
+Result<HeightTile> PlanetTiles::height_tile(const TileAddress& address, TileFormat format,
+                                            const terrain::ProductOptions& options) {
+  if (terrain::Status s = validate(address, format, options); !s) return s.error();
+  return evaluate(request_for(address, format, options), nullptr);
+}
+
+Result<std::vector<std::uint8_t>> PlanetTiles::water_mask(const TileAddress& address) {
+  std::vector<std::uint8_t> wet;
+  Result<HeightTile> tile =
+      evaluate({TileScheme::geographic, address, SampleLayout::cell_centres, 256, 0}, &wet);
+  if (!tile) return tile.error();
+  bool any_land = false, any_water = false;
+  for (std::uint8_t& w : wet) {
+    (w != 0 ? any_water : any_land) = true;
+    w = w != 0 ? 255 : 0;
+  }
+  if (!any_water) return std::vector<std::uint8_t>{0};
+  if (!any_land) return std::vector<std::uint8_t>{255};
+  return wet;
+}
+
+Result<terrain::Product> PlanetTiles::make(const TileAddress& address, TileFormat format,
+                                           const terrain::ProductOptions& options) {
+  Result<HeightTile> tile = height_tile(address, format, options);
+  if (!tile) return tile.error();
+  terrain::MeshExtras extras;
+  if (format == TileFormat::quantized_mesh) {
+    if (options.watermask) {
+      Result<std::vector<std::uint8_t>> mask = water_mask(address);
+      if (!mask) return mask.error();
+      extras.water_mask = std::move(*mask);
+    }
+    if (options.metadata && address.z < max_zoom()) {
+      extras.metadata =
+          terrain::quantized_mesh_metadata_json(
+              everything(address.z + 1, std::min(max_zoom(), address.z + 10), &address))
+              .dump();
+    }
+  }
+  Result<terrain::Product> product = terrain::encode_product(
+      *tile, format, options, constants_at(address.z), terrain::Georeference{}, std::move(extras));
+  if (product) product->backend = "cpu (planet)";
+  return product;
+}
+
+nlohmann::json PlanetTiles::layer_json(const terrain::LayerJsonOptions& base) const {
+  terrain::LayerJsonOptions options = base;
+  options.minzoom = 0;
+  options.maxzoom = max_zoom();
+  options.available = everything(0, max_zoom(), nullptr);
+  return terrain::quantized_mesh_layer_json(options);
+}
+
+}  // namespace planet

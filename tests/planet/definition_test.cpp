@@ -1,0 +1,84 @@
+// Planet definitions: defaults, canonical JSON and id, and every kind of bad input refused with
+// the offending field's JSON pointer.
+#include <gtest/gtest.h>
+
+#include "planet/definition.hpp"
+
+namespace planet {
+namespace {
+
+TEST(PlanetDefinition, MissingFieldsTakeTableTwoDefaults) {
+  Result<PlanetDefinition> d = parse_planet_text("{}");
+  ASSERT_TRUE(d.ok()) << d.error().message;
+  EXPECT_EQ(d->radius, 6371000.0);
+  EXPECT_EQ(d->continents, 6);
+  EXPECT_EQ(d->land_fraction, 0.5);
+  EXPECT_EQ(d->river_depth, 300.0);
+  EXPECT_EQ(d->min_river_length, 200000.0);
+  EXPECT_EQ(d->max_ground_slope, 1.0);
+  EXPECT_EQ(d->flattening, 0.0);           // a sphere unless asked otherwise
+  EXPECT_EQ(8 << d->base_levels(), 4096);  // ~5000 faces rounded to 8·2^k
+}
+
+TEST(PlanetDefinition, CanonicalJsonRoundTripsAndFixesTheId) {
+  Result<PlanetDefinition> a = parse_planet_text(
+      R"({"seed": 7, "land_fraction": 0.3, "detail": {"hurst": 0.7}, "flattening": 0.0033})");
+  ASSERT_TRUE(a.ok()) << a.error().message;
+  Result<PlanetDefinition> b = parse_planet(canonical_json(*a));
+  ASSERT_TRUE(b.ok());
+  EXPECT_EQ(canonical_text(*a), canonical_text(*b));
+  EXPECT_EQ(planet_id(*a), planet_id(*b));
+  EXPECT_EQ(planet_id(*a).size(), 64u);
+  // Key order and whitespace are not part of the identity; every value is.
+  Result<PlanetDefinition> c = parse_planet_text(
+      R"({ "flattening": 0.0033, "detail": {"hurst": 0.7},  "land_fraction": 0.3, "seed": 7 })");
+  EXPECT_EQ(planet_id(*a), planet_id(*c));
+  PlanetDefinition d = *a;
+  d.seed = 8;
+  EXPECT_NE(planet_id(*a), planet_id(d));
+  d = *a;
+  d.detail.amplitude += 1.0;
+  EXPECT_NE(planet_id(*a), planet_id(d));
+}
+
+TEST(PlanetDefinition, BadDefinitionsAreRejectedNamingTheField) {
+  const struct {
+    const char* text;
+    const char* pointer;
+  } cases[] = {
+      {"[1, 2]", ""},
+      {"{\"seed\": ", ""},
+      {R"({"colour": "blue"})", "/colour"},
+      {R"({"seed": -1})", "/seed"},
+      {R"({"seed": 1.5})", "/seed"},
+      {R"({"radius": "big"})", "/radius"},
+      {R"({"radius": 10})", "/radius"},
+      {R"({"land_fraction": 1.5})", "/land_fraction"},
+      {R"({"continents": 0})", "/continents"},
+      {R"({"continents": 2.5})", "/continents"},
+      {R"({"base_faces": 10})", "/base_faces"},
+      {R"({"river_depth": 0})", "/river_depth"},
+      {R"({"max_ground_slope": -1})", "/max_ground_slope"},
+      {R"({"flattening": 0.5})", "/flattening"},
+      {R"({"detail": 3})", "/detail"},
+      {R"({"detail": {"hurst": 0}})", "/detail/hurst"},
+      {R"({"detail": {"octaves": 3}})", "/detail/octaves"},
+      {R"({"max_river_altitude": 9000, "max_mountain_altitude": 5000})", "/max_mountain_altitude"},
+      {R"({"sea_depth": 100, "river_depth": 300})", "/sea_depth"},
+  };
+  for (const auto& c : cases) {
+    Result<PlanetDefinition> d = parse_planet_text(c.text);
+    ASSERT_FALSE(d.ok()) << c.text;
+    EXPECT_EQ(d.error().pointer, c.pointer) << c.text << ": " << d.error().message;
+    EXPECT_FALSE(d.error().message.empty());
+  }
+}
+
+TEST(PlanetDefinition, TheBuiltInDefaultPlanetParses) {
+  Result<PlanetDefinition> d = load_planet_file(TERRAIN_SOURCE_DIR "/config/planets/default.json");
+  ASSERT_TRUE(d.ok()) << d.error().pointer << ": " << d.error().message;
+  EXPECT_LT(d->max_river_altitude, d->max_mountain_altitude);
+}
+
+}  // namespace
+}  // namespace planet

@@ -1,0 +1,474 @@
+// Seeded planets end to end: reproducible base meshes, continents at the requested land fraction,
+// rivers that drain to the sea and never cross, heights independent of evaluation order, tiles
+// identical in any order, thread and process, exact shared edges and centimetre precision.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <random>
+#include <set>
+#include <thread>
+
+#include "planet/picture.hpp"
+#include "planet/planet.hpp"
+#include "planet/tiles.hpp"
+#include "terrain/gzip.hpp"
+#include "terrain/quantized_mesh.hpp"
+
+namespace planet {
+namespace {
+
+using terrain::TileAddress;
+using terrain::TileFormat;
+
+PlanetDefinition definition(std::uint64_t seed, double land = 0.35) {
+  PlanetDefinition d;
+  d.seed = seed;
+  d.land_fraction = land;
+  d.max_river_altitude = 4500;
+  d.max_mountain_altitude = 8000;
+  return d;
+}
+
+const std::shared_ptr<const Planet>& shared_planet() {
+  static const std::shared_ptr<const Planet> planet = Planet::create(definition(20110627));
+  return planet;
+}
+
+// A direction inside the base triangle t (its centroid).
+Vec3d centroid(const Hierarchy& h, std::int32_t t) {
+  const Tri& tri = h.tris[static_cast<std::size_t>(t)];
+  return normalize(
+      add(add(h.vertices[tri.v[0]].p, h.vertices[tri.v[1]].p), h.vertices[tri.v[2]].p));
+}
+
+// The first base-mesh leaf whose three vertices all have `flags`.
+std::int32_t leaf_with(const BaseMesh& mesh, std::uint8_t flags) {
+  for (std::int32_t t : mesh.leaves) {
+    const Tri& tri = mesh.hierarchy.tris[static_cast<std::size_t>(t)];
+    bool all = true;
+    for (std::uint32_t v : tri.v) all = all && (mesh.hierarchy.vertices[v].flags & flags) != 0;
+    if (all) return t;
+  }
+  return -1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Base mesh
+
+TEST(PlanetBaseMesh, IsIdenticalAcrossRunsAndThreadCounts) {
+  const PlanetDefinition d = definition(99);
+  const std::string one = build_base_mesh(d, {1})->hash();
+  EXPECT_EQ(one, build_base_mesh(d, {1})->hash());
+  EXPECT_EQ(one, build_base_mesh(d, {2})->hash());
+  EXPECT_EQ(one, build_base_mesh(d, {4})->hash());
+  EXPECT_NE(one, build_base_mesh(definition(100), {1})->hash());
+}
+
+TEST(PlanetBaseMesh, HashIsIdenticalInAnotherProcess) {
+  // The CLI is another process with its own address space and allocation order.
+  const std::string out = testing::TempDir() + "/planet_mesh.json";
+  const std::string command = std::string(PLANET_CLI) + " mesh " + TERRAIN_SOURCE_DIR +
+                              "/config/planets/default.json --threads 2 > " + out;
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  std::ifstream in(out);
+  const nlohmann::json report = nlohmann::json::parse(in);
+  Result<PlanetDefinition> d = load_planet_file(TERRAIN_SOURCE_DIR "/config/planets/default.json");
+  ASSERT_TRUE(d.ok());
+  EXPECT_EQ(report.at("hash").get<std::string>(), build_base_mesh(*d)->hash());
+  EXPECT_EQ(report.at("id").get<std::string>(), planet_id(*d));
+}
+
+TEST(PlanetBaseMesh, LandFractionIsWithinTwoPercentOfTheRequest) {
+  for (double land : {0.2, 0.35, 0.5}) {
+    for (std::uint64_t seed : {1u, 2u, 3u}) {
+      const auto mesh = build_base_mesh(definition(seed, land));
+      EXPECT_NEAR(mesh->stats.land_fraction, land, 0.02) << "seed " << seed;
+    }
+  }
+}
+
+TEST(PlanetBaseMesh, EveryRiverFallsMonotonicallyToTheSea) {
+  const BaseMesh& mesh = shared_planet()->base_mesh();
+  const auto& vertices = mesh.hierarchy.vertices;
+  int rivers = 0;
+  for (std::size_t v = 0; v < mesh.downstream.size(); ++v) {
+    if ((vertices[v].flags & kLand) == 0) continue;
+    ASSERT_NE(vertices[v].flags & kRiver, 0) << "every continental vertex is on a river (§4.2)";
+    ++rivers;
+    std::size_t at = v;
+    int steps = 0;
+    while (mesh.downstream[at] >= 0) {
+      const auto next = static_cast<std::size_t>(mesh.downstream[at]);
+      ASSERT_LT(vertices[next].water, vertices[at].water) << "water must fall downstream";
+      ASSERT_LT(vertices[next].ground, vertices[at].ground) << "and so must the river bed";
+      ASSERT_LT(++steps, 100000);
+      at = next;
+    }
+    // The end is a mouth on the coast at sea level, or an allowed endorheic basin.
+    if ((vertices[at].flags & kCoast) != 0) {
+      EXPECT_EQ(vertices[at].water, mesh.rules.def.sea_level);
+      EXPECT_LT(vertices[at].ground, vertices[at].water);
+    } else {
+      EXPECT_GT(mesh.stats.endorheic, 0);
+    }
+  }
+  EXPECT_GT(rivers, 100);
+  EXPECT_GT(mesh.stats.mouths, 20);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Refinement
+
+// A hierarchy refined around `count` random points of a base triangle to `extra` levels deeper.
+Hierarchy refined_patch(const BaseMesh& mesh, std::int32_t base, int extra, int count,
+                        std::uint64_t seed) {
+  Hierarchy h = mesh.hierarchy;
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const Tri& tri = mesh.hierarchy.tris[static_cast<std::size_t>(base)];
+  for (int i = 0; i < count; ++i) {
+    double a = u(random), b = u(random);
+    if (a + b > 1) a = 1 - a, b = 1 - b;
+    const Vec3d p = normalize(
+        add(add(scale(h.vertices[tri.v[0]].p, 1 - a - b), scale(h.vertices[tri.v[1]].p, a)),
+            scale(h.vertices[tri.v[2]].p, b)));
+    h.locate(p, mesh.rules.mesh_level + extra);
+  }
+  return h;
+}
+
+TEST(PlanetRefinement, HeightsDoNotDependOnWhatWasEvaluatedBefore) {
+  const auto& world = shared_planet();
+  std::mt19937_64 random(5);
+  std::uniform_real_distribution<double> lat(-80, 80), lon(-180, 180);
+  std::vector<std::pair<double, double>> points;
+  for (int i = 0; i < 300; ++i) points.emplace_back(lat(random), lon(random));
+  Sampler first(world), second(world);
+  std::vector<PointSample> a;
+  for (auto [phi, lambda] : points) a.push_back(first.sample(phi, lambda, 30.0));
+  // Another sampler that refined elsewhere first and then asks in reverse order.
+  for (int i = 0; i < 200; ++i) second.sample(lat(random), lon(random), 5.0);
+  for (std::size_t i = points.size(); i-- > 0;) {
+    const PointSample b = second.sample(points[i].first, points[i].second, 30.0);
+    EXPECT_EQ(a[i].ground, b.ground);
+    EXPECT_EQ(a[i].water, b.water);
+    EXPECT_EQ(a[i].type, b.type);
+  }
+}
+
+TEST(PlanetRefinement, TrianglesStayPositivelyOrientedSoRiversCannotCross) {
+  const BaseMesh& mesh = shared_planet()->base_mesh();
+  const std::int32_t base = leaf_with(mesh, kRiver);
+  ASSERT_GE(base, 0);
+  const Hierarchy h = refined_patch(mesh, base, 10, 400, 11);
+  for (const Tri& t : h.tris) {
+    if (t.child[0] >= 0 || t.level < mesh.rules.mesh_level) continue;
+    EXPECT_GT(det(h.vertices[t.v[0]].p, h.vertices[t.v[1]].p, h.vertices[t.v[2]].p), 0.0);
+  }
+  // River edges of the refined leaves: no two cross (they may only meet at vertices).
+  std::set<std::pair<std::uint32_t, std::uint32_t>> edges;
+  for (const Tri& t : h.tris) {
+    if (t.child[0] >= 0) continue;
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (t.edge[k] != EdgeType::river) continue;
+      const std::uint32_t a = t.v[k], b = t.v[(k + 1) % 3];
+      edges.insert({std::min(a, b), std::max(a, b)});
+    }
+  }
+  ASSERT_GT(edges.size(), 20u);
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>> list(edges.begin(), edges.end());
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    for (std::size_t j = i + 1; j < list.size(); ++j) {
+      const auto [a, b] = list[i];
+      const auto [c, d] = list[j];
+      if (a == c || a == d || b == c || b == d) continue;
+      const Vec3d &pa = h.vertices[a].p, &pb = h.vertices[b].p, &pc = h.vertices[c].p,
+                  &pd = h.vertices[d].p;
+      const bool cross = det(pa, pb, pc) * det(pa, pb, pd) < 0 &&
+                         det(pc, pd, pa) * det(pc, pd, pb) < 0 && dot(add(pa, pb), add(pc, pd)) > 0;
+      EXPECT_FALSE(cross) << "river edges " << i << " and " << j << " cross";
+    }
+  }
+}
+
+TEST(PlanetRefinement, RefinedRiversStillDrainDownhill) {
+  const BaseMesh& mesh = shared_planet()->base_mesh();
+  const std::int32_t base = leaf_with(mesh, kRiver);
+  const Hierarchy h = refined_patch(mesh, base, 12, 400, 17);
+  // Every river vertex on a refined leaf has a river edge to a vertex with lower water (or is
+  // a mouth on the coast): following the lowest such edge reaches the sea.
+  std::map<std::uint32_t, double> lowest;  // river vertex → lowest water of its river neighbours
+  for (const Tri& t : h.tris) {
+    if (t.child[0] >= 0) continue;
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (t.edge[k] != EdgeType::river) continue;
+      const std::uint32_t a = t.v[k], b = t.v[(k + 1) % 3];
+      for (auto [x, y] : {std::pair{a, b}, std::pair{b, a}}) {
+        auto [it, inserted] = lowest.emplace(x, h.vertices[y].water);
+        if (!inserted) it->second = std::min(it->second, h.vertices[y].water);
+      }
+    }
+  }
+  ASSERT_GT(lowest.size(), 20u);
+  int checked = 0;
+  for (auto [v, low] : lowest) {
+    const Vertex& x = h.vertices[v];
+    if ((x.flags & kCoast) != 0) continue;
+    EXPECT_LT(low, x.water) << "river vertex " << v << " has no way down";
+    ++checked;
+  }
+  EXPECT_GT(checked, 20);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Samples
+
+TEST(PlanetSample, ReportsSeaLandAndRivers) {
+  const auto& world = shared_planet();
+  const BaseMesh& mesh = world->base_mesh();
+  Sampler sampler(world);
+  double lat = 0, lon = 0;
+  world->geodesy().direction_to_geographic(centroid(mesh.hierarchy, leaf_with(mesh, kSea)), lat,
+                                           lon);
+  const PointSample sea = sampler.sample(lat, lon);
+  EXPECT_EQ(sea.type, SurfaceType::sea);
+  EXPECT_EQ(sea.water, world->definition().sea_level);
+  EXPECT_LT(sea.ground, sea.water);
+  // A river vertex below its water, away from the coast: the river is there.
+  const auto& vertices = mesh.hierarchy.vertices;
+  std::size_t river = 0;
+  while (river < vertices.size() && !((vertices[river].flags & kLand) != 0 &&
+                                      vertices[river].water > vertices[river].ground + 50))
+    ++river;
+  ASSERT_LT(river, vertices.size());
+  world->geodesy().direction_to_geographic(vertices[river].p, lat, lon);
+  const PointSample wet = sampler.sample(lat, lon);
+  EXPECT_EQ(wet.type, SurfaceType::river);
+  EXPECT_GT(wet.water, wet.ground);
+  // Land: the highest base vertex.
+  const auto top = std::max_element(vertices.begin(), vertices.end(),
+                                    [](auto& a, auto& b) { return a.ground < b.ground; });
+  world->geodesy().direction_to_geographic(top->p, lat, lon);
+  const PointSample high = sampler.sample(lat, lon);
+  EXPECT_EQ(high.type, SurfaceType::land);
+  EXPECT_GT(high.ground, 1000.0);
+  EXPECT_EQ(high.water, high.ground);
+  const nlohmann::json body = sample_json(lat, lon, high);
+  EXPECT_EQ(body.at("type"), "land");
+}
+
+TEST(PlanetGeodesy, DirectionsAgreeWithGeographicLib) {
+  for (double flattening : {0.0, 1.0 / 298.257223563}) {
+    Geodesy g(6378137.0, flattening);
+    for (double lat : {-89.0, -45.0, 0.0, 30.0, 89.9}) {
+      for (double lon : {-179.0, 0.0, 77.0}) {
+        const Vec3d d = g.direction(lat, lon);
+        const Vec3d e = normalize(g.ecef(lat, lon, 0.0));
+        for (int i = 0; i < 3; ++i)
+          EXPECT_NEAR(d[static_cast<std::size_t>(i)], e[static_cast<std::size_t>(i)], 1e-15);
+        double back_lat = 0, back_lon = 0;
+        g.direction_to_geographic(d, back_lat, back_lon);
+        EXPECT_NEAR(back_lat, lat, 1e-11);
+        EXPECT_NEAR(back_lon, lon, 1e-11);
+      }
+    }
+    // A degree of latitude at the equator: 110.57 km on WGS84, π·R/180 on the sphere.
+    EXPECT_NEAR(g.distance(0, 0, 1, 0), flattening == 0 ? 111319.49 : 110574.39, 0.01);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Tiles
+
+std::vector<std::uint8_t> bytes_of(PlanetTiles& tiles, TileAddress a, TileFormat f,
+                                   const terrain::ProductOptions& o = {}) {
+  Result<terrain::Product> p = tiles.make(a, f, o);
+  if (!p) throw std::runtime_error(p.error().pointer + ": " + p.error().message);
+  return std::move(p->bytes);
+}
+
+terrain::HeightTile corners(PlanetTiles& tiles, TileAddress a, int grid = 65) {
+  terrain::ProductOptions o;
+  o.grid = grid;
+  Result<terrain::HeightTile> t = tiles.height_tile(a, TileFormat::quantized_mesh, o);
+  if (!t) throw std::runtime_error(t.error().pointer + ": " + t.error().message);
+  return std::move(t).value();
+}
+
+TEST(PlanetTiles, AreIdenticalInAnyOrderThreadAndProcess) {
+  const auto& world = shared_planet();
+  const std::vector<std::pair<TileAddress, TileFormat>> jobs = {
+      {{0, 0, 0}, TileFormat::terrain_rgb},      {{3, 9, 5}, TileFormat::gray16},
+      {{6, 70, 40}, TileFormat::quantized_mesh}, {{9, 600, 300}, TileFormat::terrarium},
+      {{12, 4500, 2300}, TileFormat::glb},       {{3, 10, 5}, TileFormat::normal_map}};
+  std::vector<std::vector<std::uint8_t>> forward;
+  {
+    PlanetTiles tiles(world);
+    for (auto [a, f] : jobs) forward.push_back(bytes_of(tiles, a, f));
+  }
+  {
+    PlanetTiles tiles(world);
+    for (std::size_t i = jobs.size(); i-- > 0;) {
+      EXPECT_EQ(bytes_of(tiles, jobs[i].first, jobs[i].second), forward[i]) << i;
+    }
+  }
+  std::vector<std::vector<std::uint8_t>> threaded(jobs.size());
+  std::vector<std::thread> pool;
+  for (std::size_t i = 0; i < jobs.size(); ++i) {
+    pool.emplace_back([&, i] {
+      PlanetTiles tiles(world);
+      threaded[i] = bytes_of(tiles, jobs[i].first, jobs[i].second);
+    });
+  }
+  for (auto& t : pool) t.join();
+  EXPECT_EQ(threaded, forward);
+  // Another process: the CLI writes tile 3/9/5 as gray16.
+  const std::string out = testing::TempDir() + "/planet_tile.png";
+  const std::string command = std::string(PLANET_CLI) + " tile " + TERRAIN_SOURCE_DIR +
+                              "/config/planets/default.json 3 9 5 --encoding gray16 -o " + out +
+                              " > /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  std::ifstream in(out, std::ios::binary);
+  const std::vector<std::uint8_t> file((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_EQ(file, forward[1]);
+}
+
+TEST(PlanetTiles, NeighboursShareEdgesExactly) {
+  PlanetTiles tiles(shared_planet());
+  for (TileAddress a :
+       {TileAddress{2, 3, 1}, TileAddress{9, 601, 300}, TileAddress{15, 38000, 20000}}) {
+    const terrain::HeightTile t = corners(tiles, a);
+    const terrain::HeightTile east = corners(tiles, {a.z, a.x + 1, a.y});
+    const terrain::HeightTile north = corners(tiles, {a.z, a.x, a.y + 1});
+    const int n = t.width;
+    for (int i = 0; i < n; ++i) {
+      EXPECT_EQ(t.elevation[t.index(n - 1, i)], east.elevation[east.index(0, i)]) << a.z;
+      EXPECT_EQ(t.slope_east[t.index(n - 1, i)], east.slope_east[east.index(0, i)]) << a.z;
+      EXPECT_EQ(t.elevation[t.index(i, 0)], north.elevation[north.index(i, n - 1)]) << a.z;
+    }
+  }
+}
+
+TEST(PlanetTiles, KeepCentimetrePrecisionAtZoom22) {
+  PlanetTiles tiles(shared_planet());
+  // A zoom-22 tile (about 8 m across) and its parent: the child's even samples are the parent's
+  // samples of the same quadrant, and only detail finer than 15 cm separates them.
+  const TileAddress child{22, 2400001, 1300003};
+  const TileAddress parent{21, child.x / 2, child.y / 2};
+  const terrain::HeightTile c = corners(tiles, child);
+  const terrain::HeightTile p = corners(tiles, parent);
+  const int half = 32;
+  const int col0 = static_cast<int>(child.x % 2) * half;
+  const int row0 = static_cast<int>(1 - child.y % 2) * half;  // TMS: y grows north, rows south
+  double worst = 0.0;
+  for (int r = 0; r <= 64; r += 2) {
+    for (int k = 0; k <= 64; k += 2) {
+      const double diff =
+          c.elevation[c.index(k, r)] - p.elevation[p.index(col0 + k / 2, row0 + r / 2)];
+      worst = std::max(worst, std::abs(diff));
+    }
+  }
+  EXPECT_LT(worst, 0.01);
+  // And the heights vary smoothly at the centimetre scale: no float staircase of half metres.
+  std::set<float> distinct(c.elevation.begin(), c.elevation.end());
+  EXPECT_GT(distinct.size(), 1000u);
+  for (int r = 0; r < 65; ++r) {
+    for (int k = 1; k < 65; ++k) {
+      EXPECT_LT(std::abs(c.elevation[c.index(k, r)] - c.elevation[c.index(k - 1, r)]), 0.5f);
+    }
+  }
+}
+
+TEST(PlanetTiles, QuantizedMeshCarriesHeightsAndAWaterMask) {
+  PlanetTiles tiles(shared_planet());
+  // A zoom-2 tile holding both sea and land (the planet has both; one of the 32 tiles must).
+  TileAddress a{2, 0, 0};
+  std::size_t most_mixed = 0;
+  for (std::int64_t x = 0; x < 8; ++x) {
+    for (std::int64_t y = 0; y < 4; ++y) {
+      Result<std::vector<std::uint8_t>> mask = tiles.water_mask({2, x, y});
+      ASSERT_TRUE(mask.ok());
+      if (mask->size() == 1) continue;
+      const auto wet = static_cast<std::size_t>(std::count(mask->begin(), mask->end(), 255));
+      const std::size_t mixed = std::min(wet, mask->size() - wet);
+      if (mixed > most_mixed) most_mixed = mixed, a = {2, x, y};
+    }
+  }
+  const terrain::HeightTile t = corners(tiles, a);
+  Result<std::vector<std::uint8_t>> raw =
+      terrain::gzip_decompress(bytes_of(tiles, a, TileFormat::quantized_mesh), 1u << 26);
+  ASSERT_TRUE(raw.ok());
+  Result<terrain::QuantizedMesh> qm = terrain::decode_quantized_mesh(*raw);
+  ASSERT_TRUE(qm.ok()) << qm.error().message;
+  const double quantum = std::max((qm->header.maximum_height - qm->header.minimum_height) / 32767.0,
+                                  tiles.constants_at(2).edge_quantum);
+  for (std::size_t k = 0; k < qm->vertex_count(); ++k) {
+    const int col = static_cast<int>(std::lround(qm->u[k] / 32767.0 * 64));
+    const int row = 64 - static_cast<int>(std::lround(qm->v[k] / 32767.0 * 64));
+    EXPECT_NEAR(qm->height_metres(k), t.elevation[t.index(col, row)], quantum / 2 + 1e-6);
+  }
+  ASSERT_TRUE(qm->water_mask.has_value());
+  ASSERT_EQ(qm->water_mask->size(), 65536u);
+  const auto wet = std::count(qm->water_mask->begin(), qm->water_mask->end(), 255);
+  EXPECT_GT(wet, 6500);  // at least a tenth each of water and land
+  EXPECT_LT(wet, 65536 - 6500);
+  const nlohmann::json layer = tiles.layer_json({});
+  EXPECT_EQ(layer.at("projection"), "EPSG:4326");
+  EXPECT_EQ(layer.at("available").size(), static_cast<std::size_t>(PlanetTiles::max_zoom() + 1));
+}
+
+TEST(PlanetTiles, BadRequestsAreRefusedNamingTheField) {
+  PlanetTiles tiles(shared_planet());
+  terrain::ProductOptions big;
+  big.size = 100;
+  const struct {
+    TileAddress address;
+    TileFormat format;
+    terrain::ProductOptions options;
+    const char* pointer;
+  } cases[] = {
+      {{30, 0, 0}, TileFormat::terrain_rgb, {}, "/z"},
+      {{1, 4, 0}, TileFormat::terrain_rgb, {}, "/x"},
+      {{1, 0, 2}, TileFormat::terrain_rgb, {}, "/y"},
+      {{1, 0, 0}, TileFormat::terrain_rgb, big, "/size"},
+  };
+  for (const auto& c : cases) {
+    Result<terrain::Product> p = tiles.make(c.address, c.format, c.options);
+    ASSERT_FALSE(p.ok());
+    EXPECT_EQ(p.error().pointer, c.pointer);
+  }
+  Result<terrain::HeightTile> mercator = tiles.height_tile(terrain::TileRequest{
+      terrain::TileScheme::webmercator, {0, 0, 0}, terrain::SampleLayout::cell_centres, 256, 0});
+  ASSERT_FALSE(mercator.ok());
+  EXPECT_EQ(mercator.error().pointer, "/scheme");
+}
+
+TEST(PlanetPicture, ShowsLandSeaAndRiversAndIsThreadIndependent) {
+  PictureOptions options;
+  options.width = 256;
+  const std::vector<std::uint8_t> one = planet_picture_rgb(shared_planet(), options);
+  options.threads = 3;
+  EXPECT_EQ(planet_picture_rgb(shared_planet(), options), one);
+  int blue = 0, green_or_brown = 0, river = 0;
+  for (std::size_t i = 0; i < one.size(); i += 3) {
+    if (one[i] == 40 && one[i + 1] == 90 && one[i + 2] == 230) {
+      ++river;
+    } else if (one[i + 2] > one[i] && one[i + 2] > one[i + 1]) {
+      ++blue;
+    } else {
+      ++green_or_brown;
+    }
+  }
+  const double pixels = static_cast<double>(one.size() / 3);
+  EXPECT_GT(blue / pixels, 0.4);
+  EXPECT_GT(green_or_brown / pixels, 0.15);
+  EXPECT_GT(river, 50);
+}
+
+}  // namespace
+}  // namespace planet
