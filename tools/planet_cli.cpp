@@ -1,5 +1,6 @@
 // planet: command-line access to seeded planets — id, base mesh, samples, pictures and tiles.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <map>
@@ -7,6 +8,7 @@
 #include <thread>
 #include <vector>
 
+#include "cli_args.hpp"
 #include "planet/picture.hpp"
 #include "planet/planet.hpp"
 #include "planet/tiles.hpp"
@@ -30,32 +32,15 @@ Usage:
   planet --help
 )";
 
-struct Args {
-  std::vector<std::string> positional;
-  std::map<std::string, std::string> options;
-  bool has(const std::string& k) const { return options.contains(k); }
-  std::string get(const std::string& k, const std::string& fallback) const {
-    auto it = options.find(k);
-    return it == options.end() ? fallback : it->second;
-  }
-};
+using Args = tools::CliArgs;
 
-Args parse_args(int argc, char** argv) {
-  Args args;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a.rfind("--", 0) == 0 || a == "-o") {
-      const bool flag = a == "--help" || a == "--gunzip";
-      if (!flag && i + 1 < argc) {
-        args.options[a] = argv[++i];
-      } else {
-        args.options[a] = "";
-      }
-    } else {
-      args.positional.push_back(a);
-    }
-  }
-  return args;
+// An integer option or positional; a bad one is reported and ends the command.
+std::optional<long long> integer_arg(const std::string& what, const std::string& text, long long lo,
+                                     long long hi) {
+  const auto v = tools::parse_integer(text, lo, hi);
+  if (!v)
+    std::cerr << "planet: " << what << " must be an integer from " << lo << " to " << hi << "\n";
+  return v;
 }
 
 bool write_file(const std::string& path, const std::vector<std::uint8_t>& bytes) {
@@ -84,9 +69,10 @@ int run(const Args& args) {
               << "\n";
     return 0;
   }
-  const int threads = std::stoi(args.get("--threads", "1"));
+  const auto threads = integer_arg("--threads", args.get("--threads", "1"), 1, 256);
+  if (!threads) return 2;
   const auto start = std::chrono::steady_clock::now();
-  std::shared_ptr<const Planet> world = Planet::create(*definition, {threads});
+  std::shared_ptr<const Planet> world = Planet::create(*definition, {static_cast<int>(*threads)});
   const double build_ms = elapsed_ms(start);
   if (command == "mesh") {
     const BaseMeshStats& s = world->base_mesh().stats;
@@ -106,15 +92,22 @@ int run(const Args& args) {
     return 0;
   }
   if (command == "sample" && args.positional.size() >= 4) {
-    const double lat = std::stod(args.positional[2]), lon = std::stod(args.positional[3]);
+    const auto lat = tools::parse_number(args.positional[2]);
+    const auto lon = tools::parse_number(args.positional[3]);
+    if (!lat || !lon || std::abs(*lat) > 90 || std::abs(*lon) > 180) {
+      std::cerr << "planet sample: LAT must be -90 to 90 and LON -180 to 180 degrees\n";
+      return 2;
+    }
     Sampler sampler(world);
-    std::cout << sample_json(lat, lon, sampler.sample(lat, lon)).dump(2) << "\n";
+    std::cout << sample_json(*lat, *lon, sampler.sample(*lat, *lon)).dump(2) << "\n";
     return 0;
   }
   if (command == "picture" && args.has("-o")) {
     PictureOptions options;
-    options.width = std::stoi(args.get("--width", "2048"));
-    options.threads = threads;
+    const auto width = integer_arg("--width", args.get("--width", "2048"), 16, 16384);
+    if (!width) return 2;
+    options.width = static_cast<int>(*width);
+    options.threads = static_cast<int>(*threads);
     const auto t0 = std::chrono::steady_clock::now();
     Result<std::vector<std::uint8_t>> png = planet_picture_png(world, options);
     if (!png || !write_file(args.get("-o", ""), *png)) {
@@ -138,12 +131,17 @@ int run(const Args& args) {
       return 2;
     }
     terrain::ProductOptions options;
-    options.size = std::stoi(args.get("--size", "256"));
-    options.grid = std::stoi(args.get("--grid", "65"));
+    const auto size = integer_arg("--size", args.get("--size", "256"), 1, 4096);
+    const auto grid = integer_arg("--grid", args.get("--grid", "65"), 2, 4097);
+    const auto z = integer_arg("Z", args.positional[2], 0, 30);
+    const auto x = integer_arg("X", args.positional[3], 0, (1LL << 32));
+    const auto y = integer_arg("Y", args.positional[4], 0, (1LL << 31));
+    if (!size || !grid || !z || !x || !y) return 2;
+    options.size = static_cast<int>(*size);
+    options.grid = static_cast<int>(*grid);
     PlanetTiles tiles(world);
-    const terrain::TileAddress address{std::stoi(args.positional[2]),
-                                       std::stoll(args.positional[3]),
-                                       std::stoll(args.positional[4])};
+    const terrain::TileAddress address{static_cast<int>(*z), static_cast<std::int64_t>(*x),
+                                       static_cast<std::int64_t>(*y)};
     const auto t0 = std::chrono::steady_clock::now();
     Result<terrain::Product> product = tiles.make(address, *format, options);
     const double ms = elapsed_ms(t0);
@@ -182,7 +180,12 @@ int run(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const Args args = parse_args(argc, argv);
+  const auto parsed = tools::parse_cli_args(argc, argv, {"--help", "--gunzip"});
+  if (!parsed) {
+    std::cerr << "planet: " << parsed.error().message << "\n";
+    return 2;
+  }
+  const Args& args = *parsed;
   if (args.has("--help")) {
     std::cout << kUsage;
     return 0;

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_args.hpp"
 #include "gpu/backend.hpp"
 #include "terrain/evaluate.hpp"
 #include "terrain/gzip.hpp"
@@ -54,47 +55,8 @@ Usage:
 Images referenced by a scene are read relative to the scene file.
 )";
 
-struct Args {
-  std::vector<std::string> positional;
-  std::map<std::string, std::string> options;
-  bool has(const std::string& k) const { return options.contains(k); }
-  std::string get(const std::string& k, const std::string& fallback) const {
-    auto it = options.find(k);
-    return it == options.end() ? fallback : it->second;
-  }
-};
-
-std::optional<Args> parse_args(int argc, char** argv) {
-  Args args;
-  for (int i = 1; i < argc; ++i) {
-    std::string a = argv[i];
-    if (a == "--plain" || a == "--help" || a == "-h" || a == "--border" || a == "--regular" ||
-        a == "--gunzip") {
-      args.options[a] = "1";
-    } else if (a.rfind("-", 0) == 0 && a.size() > 1 &&
-               !std::isdigit(static_cast<unsigned char>(a[1])) && a[1] != '.') {
-      if (i + 1 >= argc) {
-        std::cerr << "terrain: option " << a << " needs a value\n";
-        return std::nullopt;
-      }
-      args.options[a] = argv[++i];
-    } else {
-      args.positional.push_back(a);
-    }
-  }
-  return args;
-}
-
-std::optional<double> to_number(const std::string& text) {
-  try {
-    std::size_t used = 0;
-    const double v = std::stod(text, &used);
-    if (used != text.size() || !std::isfinite(v)) return std::nullopt;
-    return v;
-  } catch (...) {
-    return std::nullopt;
-  }
-}
+using Args = tools::CliArgs;
+using tools::parse_number;
 
 /// A scene file parsed and compiled; errors are printed with the file and JSON pointer.
 struct Loaded {
@@ -152,8 +114,8 @@ int cmd_sample(const Args& args) {
     std::cerr << "terrain sample: needs SCENE X Y\n";
     return 2;
   }
-  const auto x = to_number(args.positional[2]), y = to_number(args.positional[3]);
-  const auto lod = to_number(args.get("--lod", "0"));
+  const auto x = parse_number(args.positional[2]), y = parse_number(args.positional[3]);
+  const auto lod = parse_number(args.get("--lod", "0"));
   if (!x || !y || !lod || *lod < 0) {
     std::cerr << "terrain sample: X, Y and --lod must be numbers (lod ≥ 0)\n";
     return 2;
@@ -182,7 +144,7 @@ std::optional<Box2> parse_area(const std::string& text) {
   std::stringstream ss(text);
   std::string part;
   while (std::getline(ss, part, ',')) {
-    const auto n = to_number(part);
+    const auto n = parse_number(part);
     if (!n) return std::nullopt;
     v.push_back(*n);
   }
@@ -193,7 +155,7 @@ std::optional<Box2> parse_area(const std::string& text) {
 
 int cmd_grid(const Args& args) {
   const std::string out = args.get("-o", "");
-  const auto size = to_number(args.get("--size", "512"));
+  const auto size = parse_number(args.get("--size", "512"));
   if (out.empty() || !size || *size < 2 || *size > 8192 || std::floor(*size) != *size) {
     std::cerr << "terrain grid: needs -o OUT.tif|OUT.png and --size from 2 to 8192\n";
     return 2;
@@ -214,7 +176,7 @@ int cmd_grid(const Args& args) {
   const double side = std::max(area.size().x, area.size().y);
   GridSpec grid{area.lo.x, area.lo.y, side / (n - 1), n, n, -1.0f};
   if (args.has("--lod"))
-    grid.lod_spacing = static_cast<float>(to_number(args.get("--lod", "0")).value_or(0));
+    grid.lod_spacing = static_cast<float>(parse_number(args.get("--lod", "0")).value_or(0));
   const auto start = std::chrono::steady_clock::now();
   const GridResult result = evaluate_grid(program, grid);
   const double ms =
@@ -255,8 +217,8 @@ int cmd_grid(const Args& args) {
 
 int cmd_render(const Args& args) {
   const std::string out = args.get("-o", "");
-  const auto width = to_number(args.get("--width", "960"));
-  const auto height = to_number(args.get("--height", "540"));
+  const auto width = parse_number(args.get("--width", "960"));
+  const auto height = parse_number(args.get("--height", "540"));
   if (out.empty() || !width || !height || *width < 1 || *height < 1 || *width > 8192 ||
       *height > 8192) {
     std::cerr << "terrain render: needs -o OUT.png; --width/--height from 1 to 8192\n";
@@ -271,7 +233,7 @@ int cmd_render(const Args& args) {
   RenderOptions options;
   options.trace.accelerated = !args.has("--plain");
   if (args.has("--water"))
-    options.water_level = static_cast<float>(to_number(args.get("--water", "0")).value_or(-1e9));
+    options.water_level = static_cast<float>(parse_number(args.get("--water", "0")).value_or(-1e9));
   options.progress = progress_bar;
   const auto start = std::chrono::steady_clock::now();
   const Picture picture = render(program, area, camera, options);
@@ -371,7 +333,7 @@ int cmd_tile(const Args& args) {
   options.border = args.has("--border");
   options.regular = args.has("--regular");
   if (args.has("--max-error")) {
-    options.max_error = to_number(args.get("--max-error", ""));
+    options.max_error = parse_number(args.get("--max-error", ""));
     if (!options.max_error) {
       std::cerr << "terrain tile: --max-error takes a number of metres\n";
       return 2;
@@ -438,8 +400,12 @@ int cmd_layer_json(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const auto args = parse_args(argc, argv);
-  if (!args) return 2;
+  const auto args = tools::parse_cli_args(
+      argc, argv, {"--plain", "--help", "-h", "--border", "--regular", "--gunzip"});
+  if (!args) {
+    std::cerr << "terrain: " << args.error().message << "\n";
+    return 2;
+  }
   if (args->has("--help") || args->has("-h") || args->positional.empty()) {
     std::cout << kUsage;
     return args->positional.empty() && !args->has("--help") && !args->has("-h") ? 2 : 0;
