@@ -26,7 +26,16 @@ std::string_view surface_name(SurfaceType type) {
 Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options)
     : base_(build_base_mesh(definition, options)),
       geodesy_(definition.radius, definition.flattening),
-      id_(planet_id(definition)) {}
+      id_(planet_id(definition)) {
+  const PlanetDefinition& d = definition;
+  const double r = std::pow(d.detail.lacunarity, -d.detail.hurst);
+  const double detail_max = d.detail.amplitude / (1.0 - r);
+  elevation_range_ = {
+      static_cast<float>(std::floor(d.sea_level - d.sea_depth)),
+      static_cast<float>(std::ceil(d.sea_level + d.max_mountain_altitude + detail_max))};
+  detail_gain_ = std::pow(d.detail.lacunarity, -d.detail.hurst);
+  detail_seed_ = static_cast<std::uint32_t>(mix64(d.seed ^ 0x64657461696cULL));
+}
 
 std::shared_ptr<const Planet> Planet::create(const PlanetDefinition& definition,
                                              const BuildOptions& options) {
@@ -59,19 +68,15 @@ double Planet::ground_spacing(int z, int cells) const {
 }
 
 terrain::Interval Planet::elevation_range() const {
-  const PlanetDefinition& d = definition();
-  const double r = std::pow(d.detail.lacunarity, -d.detail.hurst);
-  const double detail_max = d.detail.amplitude / (1.0 - r);
-  return {static_cast<float>(std::floor(d.sea_level - d.sea_depth)),
-          static_cast<float>(std::ceil(d.sea_level + d.max_mountain_altitude + detail_max))};
+  return elevation_range_;
 }
 
 double Planet::detail(const Vec3d& p, double octaves) const {
   const DetailParams& d = definition().detail;
   const double radius = definition().radius;
   double sum = 0.0, amplitude = d.amplitude, frequency = radius / d.wavelength;
-  const double gain = std::pow(d.lacunarity, -d.hurst);
-  const auto seed = static_cast<std::uint32_t>(mix64(definition().seed ^ 0x64657461696cULL));
+  const double gain = detail_gain_;
+  const std::uint32_t seed = detail_seed_;
   for (int k = 0; k < 40 && k < octaves; ++k) {
     const double weight = std::min(1.0, octaves - k);  // the last octave fades in (geomorphing)
     const double s = detail::gradient3(p[0] * frequency, p[1] * frequency, p[2] * frequency,
@@ -88,6 +93,12 @@ Sampler::Sampler(std::shared_ptr<const Planet> planet)
 
 void Sampler::trim() {
   hierarchy_ = planet_->base_mesh().hierarchy;
+  ++generation_;
+}
+
+void Sampler::trim_when_large() {
+  // Bounded memory for long-lived samplers: start again from the base mesh now and then.
+  if (hierarchy_.tris.size() > (std::size_t{1} << 23)) trim();
 }
 
 PointSample Sampler::sample(double latitude, double longitude) {
@@ -101,9 +112,44 @@ PointSample Sampler::sample(double latitude, double longitude, double spacing) {
 }
 
 PointSample Sampler::at(const Vec3d& p, int level, double octaves) {
-  // Bounded memory for long-lived samplers: start again from the base mesh now and then.
-  if (hierarchy_.tris.size() > (std::size_t{1} << 23)) trim();
-  const std::int32_t t = hierarchy_.locate(p, level);
+  trim_when_large();
+  return evaluate(hierarchy_.locate(p, level), p, level, octaves);
+}
+
+PointSample Sampler::at(const Vec3d& p, int level, double octaves, const DescentStart& start) {
+  trim_when_large();  // before the start is checked: a trim makes it stale
+  const bool usable = start.generation == generation_ && start.level <= level && start.holds(p);
+  return evaluate(
+      usable ? hierarchy_.locate_from(start.tri, p, level) : hierarchy_.locate(p, level), p, level,
+      octaves);
+}
+
+DescentStart Sampler::descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level) {
+  trim_when_large();
+  std::vector<std::int32_t> path{hierarchy_.root_face(centre)};
+  while (hierarchy_.tris[static_cast<std::size_t>(path.back())].level < level) {
+    hierarchy_.ensure_split(path.back());
+    path.push_back(hierarchy_.locate_child(path.back(), centre));
+  }
+  for (auto it = path.rbegin(); it != path.rend(); ++it) {
+    const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(*it)];
+    DescentStart start;
+    start.tri = *it;
+    start.generation = generation_;
+    start.level = tri.level;
+    for (std::size_t k = 0; k < 3; ++k) {
+      start.normal[k] =
+          cross(hierarchy_.vertices[tri.v[k]].p, hierarchy_.vertices[tri.v[(k + 1) % 3]].p);
+    }
+    if (start.holds(centre) &&
+        std::all_of(points.begin(), points.end(), [&](const Vec3d& p) { return start.holds(p); })) {
+      return start;
+    }
+  }
+  return {};
+}
+
+PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double octaves) {
   const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(t)];
   const Vertex& x = hierarchy_.vertices[tri.v[0]];
   const Vertex& y = hierarchy_.vertices[tri.v[1]];

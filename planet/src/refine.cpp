@@ -377,16 +377,24 @@ std::int32_t Hierarchy::locate_child(std::int32_t t, const Vec3d& p) const {
   // sector between rays m→X and m→Y when it is left of the first and right of the second. The
   // half-open tests give every point exactly one sector, decided by the same numbers in
   // whichever tile asks.
-  const double lb = det(m, b, p), lc = det(m, c, p), la = det(m, a, p), ld = det(m, d, p);
+  // Each determinant is computed only when a test needs it (the same operands and the same
+  // comparisons as computing all four first, so the same answer, in about half the work).
+  const double lb = det(m, b, p), lc = det(m, c, p);
   if (lb >= 0 && lc < 0) return T.child[1];
+  const double la = det(m, a, p);
   if (lc >= 0 && la < 0) return T.child[0];
+  const double ld = det(m, d, p);
   if (la >= 0 && ld < 0) return P.child[1];
   if (ld >= 0 && lb < 0) return P.child[0];
   return T.child[0];  // only p = ±m (or NaN) gets here
 }
 
 std::int32_t Hierarchy::locate(const Vec3d& p, int level) {
-  std::int32_t t = root_face(p);
+  return locate_from(root_face(p), p, level);
+}
+
+std::int32_t Hierarchy::locate_from(std::int32_t start, const Vec3d& p, int level) {
+  std::int32_t t = start;
   while (tris[static_cast<std::size_t>(t)].level < level) {
     ensure_split(t);
     t = locate_child(t, p);

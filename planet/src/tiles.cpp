@@ -64,7 +64,7 @@ terrain::ProductConstants PlanetTiles::constants_at(int z) const {
 }
 
 terrain::Status PlanetTiles::validate(const TileAddress& address, TileFormat format,
-                                      const terrain::ProductOptions& options) const {
+                                      const terrain::ProductOptions& options) {
   if (terrain::Status s = terrain::validate_request(request_for(address, format, options)); !s) {
     return s;
   }
@@ -118,18 +118,48 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
   std::vector<double> ground(static_cast<std::size_t>(ext) * static_cast<std::size_t>(ext));
   std::vector<std::uint8_t> wet(ground.size());
   std::vector<double> lat_deg(static_cast<std::size_t>(ext));
+  std::vector<double> sin_lat(lat_deg.size()), cos_lat(lat_deg.size());
   for (int r = 0; r < ext; ++r) {
     const double lat = std::clamp(tile.sample_crs_y(r - 1), -90.0, 90.0);
     lat_deg[static_cast<std::size_t>(r)] = lat;
-    const double s = std::sin(lat * kDegree), c = std::cos(lat * kDegree);
-    for (int col = 0; col < ext; ++col) {
-      const Vec3d p = world.geodesy().direction(s, c, sin_lon[static_cast<std::size_t>(col)],
-                                                cos_lon[static_cast<std::size_t>(col)]);
-      const PointSample sample = sampler_.at(p, level, octaves);
-      const std::size_t at = static_cast<std::size_t>(r) * static_cast<std::size_t>(ext) +
-                             static_cast<std::size_t>(col);
-      ground[at] = sample.ground;
-      wet[at] = sample.type == SurfaceType::sea || sample.type == SurfaceType::river ? 1 : 0;
+    sin_lat[static_cast<std::size_t>(r)] = std::sin(lat * kDegree);
+    cos_lat[static_cast<std::size_t>(r)] = std::cos(lat * kDegree);
+  }
+  auto direction = [&](int r, int col) {
+    const auto ur = static_cast<std::size_t>(r), uc = static_cast<std::size_t>(col);
+    return world.geodesy().direction(sin_lat[ur], cos_lat[ur], sin_lon[uc], cos_lon[uc]);
+  };
+  // Samples go in blocks that share the start of their descent: the deepest triangle holding
+  // the block's outline (with a margin), found once per block. Each sample still checks that
+  // it lies inside that triangle and otherwise descends from the octahedron, so every height
+  // is the one a lone sample gets (see DescentStart); the block only saves the common part of
+  // the ~2 levels per zoom that all its samples would descend alike.
+  constexpr int kBlock = 16;
+  std::vector<Vec3d> outline;
+  for (int r0 = 0; r0 < ext; r0 += kBlock) {
+    const int r1 = std::min(ext, r0 + kBlock) - 1;
+    for (int c0 = 0; c0 < ext; c0 += kBlock) {
+      const int c1 = std::min(ext, c0 + kBlock) - 1;
+      outline.clear();
+      for (int c = c0; c <= c1; ++c) {
+        outline.push_back(direction(r0, c));
+        outline.push_back(direction(r1, c));
+      }
+      for (int r = r0 + 1; r < r1; ++r) {
+        outline.push_back(direction(r, c0));
+        outline.push_back(direction(r, c1));
+      }
+      const DescentStart start =
+          sampler_.descent_start(direction((r0 + r1) / 2, (c0 + c1) / 2), outline, level);
+      for (int r = r0; r <= r1; ++r) {
+        for (int col = c0; col <= c1; ++col) {
+          const PointSample sample = sampler_.at(direction(r, col), level, octaves, start);
+          const std::size_t at = static_cast<std::size_t>(r) * static_cast<std::size_t>(ext) +
+                                 static_cast<std::size_t>(col);
+          ground[at] = sample.ground;
+          wet[at] = sample.type == SurfaceType::sea || sample.type == SurfaceType::river ? 1 : 0;
+        }
+      }
     }
   }
   const auto count = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
@@ -213,7 +243,7 @@ Result<terrain::Product> PlanetTiles::make(const TileAddress& address, TileForma
   return product;
 }
 
-nlohmann::json PlanetTiles::layer_json(const terrain::LayerJsonOptions& base) const {
+nlohmann::json PlanetTiles::layer_json(const terrain::LayerJsonOptions& base) {
   terrain::LayerJsonOptions options = base;
   options.minzoom = 0;
   options.maxzoom = max_zoom();

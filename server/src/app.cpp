@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 
 #include "gpu/backend.hpp"
+#include "planet/definition.hpp"
+#include "planet/tiles.hpp"
 #include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/program.hpp"
@@ -29,6 +31,14 @@ using terrain::Error;
 
 constexpr std::size_t kLoadedVersions = 64;  // compiled scene versions kept in memory
 constexpr std::size_t kMakersPerThread = 8;  // per-thread product makers (evaluators)
+// Built planets kept in memory (each holds its base mesh, a few MiB), and per generation thread
+// the PlanetTiles and Samplers that cache refined triangles (up to ~200 MiB each when deep tiles
+// are asked for, trimmed beyond that), so fewer of those.
+constexpr std::size_t kLoadedPlanets = 16;
+constexpr std::size_t kPlanetWorkersPerThread = 4;
+constexpr const char* kImmutable = "public, max-age=31536000, immutable";
+// "default" names whatever config/planets/default.json holds, which a restart may change.
+constexpr const char* kAliasCacheControl = "public, max-age=60, must-revalidate";
 
 std::string quote(std::string_view s) {
   return "\"" + std::string(s) + "\"";
@@ -207,6 +217,216 @@ std::string product_etag(std::string_view body) {
   return quote(terrain::sha256_hex(body).substr(0, 32));
 }
 
+std::string query_value(const std::map<std::string, std::string>& query, const std::string& key,
+                        const std::string& fallback = "") {
+  auto it = query.find(key);
+  return it == query.end() ? fallback : it->second;
+}
+
+// A tile or mesh request: the address, format and options of its URL and Accept header,
+// checked the same way for scenes and planets.
+struct TileQuery {
+  terrain::TileFormat format{};
+  std::string extension;
+  std::string encoding;  ///< as given (part of the cache key)
+  terrain::TileScheme scheme{};
+  terrain::TileAddress address{};
+  terrain::ProductOptions options;
+  int border = 0;
+  bool mesh = false;
+
+  /// What the cache key holds besides the content hash: everything that shapes the bytes.
+  std::string key() const {
+    std::string out;
+    for (const std::string& part :
+         {std::string(terrain::scheme_name(scheme)),
+          std::to_string(address.z) + '/' + std::to_string(address.x) + '/' +
+              std::to_string(address.y),
+          extension, encoding, std::to_string(options.size), std::to_string(border),
+          std::to_string(options.grid),
+          options.max_error ? std::to_string(*options.max_error) : "auto",
+          std::string{char('0' + options.octvertexnormals), char('0' + options.watermask),
+                      char('0' + options.metadata)}}) {
+      out += '|';
+      out += part;
+    }
+    return out;
+  }
+};
+
+// Parses /tiles/{z}/{x}/{y}.{ext} or /mesh/{z}/{x}/{y}.{ext} (rest = those four segments) with
+// the query's scheme, encoding, size, border, grid and max_error. `geographic_only`: planets,
+// whose only tiling is the geographic one (the default there, and any other scheme refused).
+terrain::Result<TileQuery, Response> parse_tile_query(
+    const Request& request, const std::vector<std::string>& rest,
+    const std::map<std::string, std::string>& query, bool geographic_only) {
+  auto get = [&](const char* key, const char* fallback = "") {
+    return query_value(query, key, fallback);
+  };
+  TileQuery q;
+  q.mesh = rest[0] == "mesh";
+  const std::string& last = rest[3];
+  const std::size_t dot = last.rfind('.');
+  if (dot == std::string::npos) {
+    return problem(request, http::status::not_found, "Unknown format",
+                   "the tile name needs an extension", "/format");
+  }
+  const auto z = parse_integer<int>(rest[1]);
+  const auto x = parse_integer<std::int64_t>(rest[2]);
+  const auto y = parse_integer<std::int64_t>(last.substr(0, dot));
+  if (!z)
+    return problem(request, http::status::bad_request, "Bad tile address", "z must be an integer",
+                   "/z");
+  if (!x)
+    return problem(request, http::status::bad_request, "Bad tile address", "x must be an integer",
+                   "/x");
+  if (!y)
+    return problem(request, http::status::bad_request, "Bad tile address", "y must be an integer",
+                   "/y");
+  q.extension = last.substr(dot + 1);
+  q.encoding = get("encoding");
+  Result<terrain::TileFormat> format = terrain::parse_tile_format(q.extension, q.encoding);
+  if (!format) {
+    return problem(
+        request,
+        format.error().pointer == "/format" ? http::status::not_found : http::status::bad_request,
+        "Unknown format", format.error().message, format.error().pointer);
+  }
+  q.format = *format;
+  const terrain::TileFormatInfo& info = terrain::format_info(q.format);
+  if (info.mesh != q.mesh) {
+    return problem(
+        request, http::status::not_found, "Unknown format",
+        "." + q.extension +
+            (q.mesh ? " is not a mesh format (use /tiles/)" : " is a mesh format (use /mesh/)"),
+        "/format");
+  }
+  const char* default_scheme = geographic_only || q.format == terrain::TileFormat::quantized_mesh
+                                   ? "geographic"
+                               : q.mesh ? "local"
+                                        : "webmercator";
+  Result<terrain::TileScheme> scheme = terrain::parse_scheme(get("scheme", default_scheme));
+  if (!scheme) {
+    return problem(request, http::status::bad_request, "Bad scheme", scheme.error().message,
+                   "/scheme");
+  }
+  if (geographic_only && *scheme != terrain::TileScheme::geographic) {
+    return problem(request, http::status::bad_request, "Bad scheme",
+                   "planets are tiled in the geographic scheme (EPSG:4326, TMS) only", "/scheme");
+  }
+  q.scheme = *scheme;
+  auto integer_option = [&](const char* key, int& out, int fallback) -> bool {
+    const std::string text = get(key);
+    if (text.empty()) {
+      out = fallback;
+      return true;
+    }
+    auto v = parse_integer<int>(text);
+    if (!v) return false;
+    out = *v;
+    return true;
+  };
+  if (!integer_option("size", q.options.size, 256)) {
+    return problem(request, http::status::bad_request, "Bad option", "size must be an integer",
+                   "/size");
+  }
+  if (!integer_option("grid", q.options.grid, 65)) {
+    return problem(request, http::status::bad_request, "Bad option", "grid must be an integer",
+                   "/grid");
+  }
+  if (!integer_option("border", q.border, 0) || (q.border != 0 && q.border != 1)) {
+    return problem(request, http::status::bad_request, "Bad option", "border must be 0 or 1",
+                   "/border");
+  }
+  q.options.border = q.border == 1;
+  if (const std::string e = get("max_error"); !e.empty()) {
+    q.options.max_error = parse_double(e);
+    if (!q.options.max_error) {
+      return problem(request, http::status::bad_request, "Bad option",
+                     "max_error must be a number of metres", "/max_error");
+    }
+  }
+  if (q.format == terrain::TileFormat::quantized_mesh) {
+    // Cesium lists the extensions it wants: application/vnd.quantized-mesh;extensions=a-b-c
+    const auto accept = request.find(http::field::accept);
+    const std::string a = accept == request.end() ? "" : std::string(accept->value());
+    q.options.octvertexnormals = a.find("octvertexnormals") != std::string::npos;
+    q.options.watermask = a.find("watermask") != std::string::npos;
+    q.options.metadata = a.find("metadata") != std::string::npos;
+  }
+  q.address = {*z, *x, *y};
+  if (terrain::Status valid = terrain::validate_address(q.scheme, q.address); !valid) {
+    return problem(request, http::status::bad_request, "Bad tile address", valid.error().message,
+                   valid.error().pointer);
+  }
+  return q;
+}
+
+// What a product response needs of its request, copied so that deferred work outlives it.
+struct ReplyContext {
+  unsigned version = 11;
+  bool keep_alive = false;
+  bool gzip_ok = false;
+  std::string if_none_match;
+  std::string cache_control;
+  std::optional<terrain::Gray16Encoding> gray16;  ///< X-Gray16-* headers for gray16 PNGs
+
+  static ReplyContext of(const Request& request, std::string cache_control) {
+    ReplyContext c;
+    c.version = request.version();
+    c.keep_alive = request.keep_alive();
+    c.gzip_ok = accepts_gzip(request);
+    const auto it = request.find(http::field::if_none_match);
+    if (it != request.end()) c.if_none_match = std::string(it->value());
+    c.cache_control = std::move(cache_control);
+    return c;
+  }
+  /// A request to build problems and responses with, once the original is gone.
+  Request shadow() const {
+    Request r{http::verb::get, "/", version};
+    if (!if_none_match.empty()) r.set(http::field::if_none_match, if_none_match);
+    r.keep_alive(keep_alive);
+    return r;
+  }
+};
+
+// The response for a product, fresh or cached: strong ETag, 304, gzip as stored or inflated.
+Response product_response(const ReplyContext& c,
+                          const std::shared_ptr<const CachedProduct>& product) {
+  const CachedProduct& p = *product;
+  const Request shadow = c.shadow();
+  // A gzip-stored product sent plain is another representation: another strong ETag.
+  const bool inflate = p.content_encoding == "gzip" && !c.gzip_ok;
+  const std::string etag = inflate ? p.etag.substr(0, p.etag.size() - 1) + "-identity\"" : p.etag;
+  Response r{http::status::ok, c.version};
+  r.set(http::field::server, "terrain-server");
+  r.keep_alive(c.keep_alive);
+  r.set(http::field::etag, etag);
+  r.set(http::field::cache_control, c.cache_control);
+  r.set(http::field::vary, "Accept-Encoding, Origin");
+  if (c.gray16) {
+    r.set("X-Gray16-Offset", std::to_string(c.gray16->offset));
+    r.set("X-Gray16-Scale", std::to_string(c.gray16->scale));
+  }
+  if (etag_matches(shadow, etag)) {
+    r.result(http::status::not_modified);
+    return r;
+  }
+  r.set(http::field::content_type, p.media_type);
+  if (inflate) {
+    auto raw = terrain::gzip_decompress(
+        std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(p.body.data()),
+                                      p.body.size()),
+        std::size_t{1} << 28);
+    r.body() = std::string(raw->begin(), raw->end());
+  } else {
+    if (!p.content_encoding.empty()) r.set(http::field::content_encoding, p.content_encoding);
+    r.body() = Payload(std::shared_ptr<const std::string>(product, &p.body));
+  }
+  if (!p.backend.empty()) r.set("X-Terrain-Backend", p.backend);
+  r.prepare_payload();  // HEAD: the session drops the body and keeps this length
+  return r;
+}
 }  // namespace
 
 Response problem(const Request& request, http::status status, std::string_view title,
@@ -254,6 +474,20 @@ std::string_view App::route_label(const Request& request) {
   if (path == "/healthz") return "healthz";
   if (path == "/metrics") return "metrics";
   if (!path.starts_with("/api/v1/")) return path == "/" ? "client" : "other";
+  if (path == "/api/v1/planets") return "planets";
+  if (path.starts_with("/api/v1/planets/")) {
+    static constexpr std::array<std::pair<std::string_view, std::string_view>, 5> planet_kinds = {{
+        {"/tiles/", "planet_tiles"},
+        {"/mesh/", "planet_mesh"},
+        {"/sample", "planet_sample"},
+        {"/tilejson.json", "planet_tilejson.json"},
+        {"/layer.json", "planet_layer.json"},
+    }};
+    for (const auto& [part, label] : planet_kinds) {
+      if (path.find(part) != std::string_view::npos) return label;
+    }
+    return "planet";
+  }
   static constexpr std::array<std::pair<std::string_view, std::string_view>, 7> kinds = {{
       {"/tiles/", "tiles"},
       {"/mesh/", "mesh"},
@@ -412,6 +646,17 @@ Outcome App::route(const Request& request, const Target& target) {
       }
       if (!read) return not_allowed("GET, HEAD");
       return scene_product(request, ref, std::vector<std::string>(s.begin() + 4, s.end()), target);
+    }
+    if (s.size() >= 3 && s[2] == "planets") {
+      if (s.size() == 3) {
+        if (read) return list_planets(request);
+        if (method == http::verb::post) return create_planet(request);
+        return not_allowed("GET, HEAD, POST");
+      }
+      if (!read) return not_allowed("GET, HEAD");
+      if (s.size() == 4) return get_planet(request, s[3]);
+      return planet_product(request, s[3], std::vector<std::string>(s.begin() + 4, s.end()),
+                            target);
     }
   }
   if (read && (s.empty() || s[0] != "api")) {
@@ -861,97 +1106,12 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     return problem(request, http::status::not_found, "Not found",
                    "no product '" + (rest.empty() ? std::string() : rest[0]) + "' of a scene");
   }
-  const bool mesh = rest[0] == "mesh";
-  const std::string& last = rest[3];
-  const std::size_t dot = last.rfind('.');
-  if (dot == std::string::npos) {
-    return problem(request, http::status::not_found, "Unknown format",
-                   "the tile name needs an extension", "/format");
-  }
-  const auto z = parse_integer<int>(rest[1]);
-  const auto x = parse_integer<std::int64_t>(rest[2]);
-  const auto y = parse_integer<std::int64_t>(last.substr(0, dot));
-  if (!z)
-    return problem(request, http::status::bad_request, "Bad tile address", "z must be an integer",
-                   "/z");
-  if (!x)
-    return problem(request, http::status::bad_request, "Bad tile address", "x must be an integer",
-                   "/x");
-  if (!y)
-    return problem(request, http::status::bad_request, "Bad tile address", "y must be an integer",
-                   "/y");
-  const std::string extension = last.substr(dot + 1);
-  Result<terrain::TileFormat> format =
-      terrain::parse_tile_format(extension, target.get("encoding"));
-  if (!format) {
-    return problem(
-        request,
-        format.error().pointer == "/format" ? http::status::not_found : http::status::bad_request,
-        "Unknown format", format.error().message, format.error().pointer);
-  }
-  const terrain::TileFormatInfo& info = terrain::format_info(*format);
-  if (info.mesh != mesh) {
-    return problem(
-        request, http::status::not_found, "Unknown format",
-        "." + extension +
-            (mesh ? " is not a mesh format (use /tiles/)" : " is a mesh format (use /mesh/)"),
-        "/format");
-  }
-  const char* default_scheme = *format == terrain::TileFormat::quantized_mesh ? "geographic"
-                               : mesh                                         ? "local"
-                                                                              : "webmercator";
-  Result<terrain::TileScheme> scheme = terrain::parse_scheme(target.get("scheme", default_scheme));
-  if (!scheme) {
-    return problem(request, http::status::bad_request, "Bad scheme", scheme.error().message,
-                   "/scheme");
-  }
-  terrain::ProductOptions options;
-  auto integer_option = [&](const char* key, int& out, int fallback) -> bool {
-    const std::string text = target.get(key);
-    if (text.empty()) {
-      out = fallback;
-      return true;
-    }
-    auto v = parse_integer<int>(text);
-    if (!v) return false;
-    out = *v;
-    return true;
-  };
-  int border = 0;
-  if (!integer_option("size", options.size, 256)) {
-    return problem(request, http::status::bad_request, "Bad option", "size must be an integer",
-                   "/size");
-  }
-  if (!integer_option("grid", options.grid, 65)) {
-    return problem(request, http::status::bad_request, "Bad option", "grid must be an integer",
-                   "/grid");
-  }
-  if (!integer_option("border", border, 0) || (border != 0 && border != 1)) {
-    return problem(request, http::status::bad_request, "Bad option", "border must be 0 or 1",
-                   "/border");
-  }
-  options.border = border == 1;
-  if (const std::string e = target.get("max_error"); !e.empty()) {
-    options.max_error = parse_double(e);
-    if (!options.max_error) {
-      return problem(request, http::status::bad_request, "Bad option",
-                     "max_error must be a number of metres", "/max_error");
-    }
-  }
-  if (*format == terrain::TileFormat::quantized_mesh) {
-    // Cesium lists the extensions it wants: application/vnd.quantized-mesh;extensions=a-b-c
-    const auto accept = request.find(http::field::accept);
-    const std::string a = accept == request.end() ? "" : std::string(accept->value());
-    options.octvertexnormals = a.find("octvertexnormals") != std::string::npos;
-    options.watermask = a.find("watermask") != std::string::npos;
-    options.metadata = a.find("metadata") != std::string::npos;
-  }
-  // Everything about the request is checked before any work: a throwaway maker validates.
-  const terrain::TileAddress address{*z, *x, *y};
-  if (terrain::Status valid = terrain::validate_address(*scheme, address); !valid) {
-    return problem(request, http::status::bad_request, "Bad tile address", valid.error().message,
-                   valid.error().pointer);
-  }
+  auto query = parse_tile_query(request, rest, target.query, false);
+  if (!query) return query.error();
+  const bool mesh = query->mesh;
+  const terrain::ProductOptions options = query->options;
+  const int border = query->border;
+  const terrain::TileAddress address = query->address;
   const double samples =
       mesh ? static_cast<double>(options.grid) * options.grid +
                  (options.watermask && loaded.source->water ? 65536.0 : 0.0)
@@ -963,65 +1123,16 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
                        " (samples x program size), above the limit of " +
                        std::to_string(static_cast<long long>(config_.max_cost)));
   }
-  std::string cache_key = loaded.version.hash;
-  for (const std::string& part :
-       {std::string(terrain::scheme_name(*scheme)),
-        std::to_string(*z) + '/' + std::to_string(*x) + '/' + std::to_string(*y),
-        std::string(extension), target.get("encoding"), std::to_string(options.size),
-        std::to_string(border), std::to_string(options.grid),
-        options.max_error ? std::to_string(*options.max_error) : "auto",
-        std::string{char('0' + options.octvertexnormals), char('0' + options.watermask),
-                    char('0' + options.metadata)}}) {
-    cache_key += '|';
-    cache_key += part;
+  const std::string cache_key = loaded.version.hash + query->key();
+  ReplyContext reply = ReplyContext::of(request, cache_control);
+  if (query->format == terrain::TileFormat::gray16) {
+    reply.gray16 = terrain::gray16_encoding_for(loaded.source->elevation_range);
   }
-  const bool gzip_ok = accepts_gzip(request);
-  const std::string if_none_match = [&] {
-    const auto it = request.find(http::field::if_none_match);
-    return it == request.end() ? std::string() : std::string(it->value());
-  }();
+  auto respond = [reply](const std::shared_ptr<const CachedProduct>& product) {
+    return product_response(reply, product);
+  };
   const unsigned version = request.version();
   const bool keep_alive = request.keep_alive();
-  const auto gray16 = terrain::gray16_encoding_for(loaded.source->elevation_range);
-
-  // The response for a product, fresh or cached.
-  auto respond = [=](const std::shared_ptr<const CachedProduct>& product) {
-    const CachedProduct& p = *product;
-    Request shadow{http::verb::get, "/", version};
-    if (!if_none_match.empty()) shadow.set(http::field::if_none_match, if_none_match);
-    shadow.keep_alive(keep_alive);
-    // A gzip-stored product sent plain is another representation: another strong ETag.
-    const bool inflate = p.content_encoding == "gzip" && !gzip_ok;
-    const std::string etag = inflate ? p.etag.substr(0, p.etag.size() - 1) + "-identity\"" : p.etag;
-    Response r{http::status::ok, version};
-    r.set(http::field::server, "terrain-server");
-    r.keep_alive(keep_alive);
-    r.set(http::field::etag, etag);
-    r.set(http::field::cache_control, cache_control);
-    r.set(http::field::vary, "Accept-Encoding, Origin");
-    if (*format == terrain::TileFormat::gray16) {
-      r.set("X-Gray16-Offset", std::to_string(gray16.offset));
-      r.set("X-Gray16-Scale", std::to_string(gray16.scale));
-    }
-    if (etag_matches(shadow, etag)) {
-      r.result(http::status::not_modified);
-      return r;
-    }
-    r.set(http::field::content_type, p.media_type);
-    if (inflate) {
-      auto raw = terrain::gzip_decompress(
-          std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(p.body.data()),
-                                        p.body.size()),
-          std::size_t{1} << 28);
-      r.body() = std::string(raw->begin(), raw->end());
-    } else {
-      if (!p.content_encoding.empty()) r.set(http::field::content_encoding, p.content_encoding);
-      r.body() = Payload(std::shared_ptr<const std::string>(product, &p.body));
-    }
-    if (!p.backend.empty()) r.set("X-Terrain-Backend", p.backend);
-    r.prepare_payload();  // HEAD: the session drops the body and keeps this length
-    return r;
-  };
 
   if (auto hit = cache_.find(cache_key)) return respond(hit);
   if (disk_cache_) {
@@ -1033,8 +1144,8 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
 
   auto source = loaded.source;
   const std::string version_hash = loaded.version.hash;
-  const terrain::TileScheme s = *scheme;
-  const terrain::TileFormat f = *format;
+  const terrain::TileScheme s = query->scheme;
+  const terrain::TileFormat f = query->format;
   Deferred deferred;
   deferred.cost = cost;
   deferred.work = [=, this]() -> Response {
@@ -1163,7 +1274,7 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
 terrain::Status App::seed_examples() {
   StoreResult<bool> empty = store_->empty();
   if (!empty) return Error{empty.error().message, ""};
-  if (!*empty) return terrain::Ok{};
+  if (!*empty) return seed_planets();
   std::error_code ec;
   std::vector<fs::path> files;
   for (const auto& entry : fs::directory_iterator(config_.scenes_dir, ec)) {
@@ -1200,7 +1311,365 @@ terrain::Status App::seed_examples() {
     StoreResult<SceneVersion> created = store_->create_scene(file.stem().string(), first);
     if (!created) return Error{created.error().message, ""};
   }
+  return seed_planets();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Planets: definitions stored by content hash, products on the geographic tiling.
+
+namespace {
+
+bool valid_planet_id(std::string_view id) {
+  return id.size() == 64 && std::all_of(id.begin(), id.end(), [](char c) {
+           return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f');
+         });
+}
+
+json planet_summary(const StoredPlanet& p, bool is_default) {
+  return {{"id", p.id},
+          {"url", "/api/v1/planets/" + p.id},
+          {"created_ms", p.created_ms},
+          {"default", is_default},
+          {"definition", json::parse(p.canonical_json, nullptr, false)}};
+}
+
+}  // namespace
+
+terrain::Status App::seed_planets() {
+  std::error_code ec;
+  // No directory, no built-in planets: the API still stores posted ones; "default" is a 404.
+  if (!fs::is_directory(config_.planets_dir, ec)) return terrain::Ok{};
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(config_.planets_dir, ec)) {
+    if (entry.path().extension() == ".json") files.push_back(entry.path());
+  }
+  if (ec) return Error{"cannot read " + config_.planets_dir + ": " + ec.message(), ""};
+  std::sort(files.begin(), files.end());
+  for (const fs::path& file : files) {
+    Result<planet::PlanetDefinition> definition = planet::load_planet_file(file.string());
+    if (!definition) {
+      return Error{file.string() + ": " + definition.error().message, definition.error().pointer};
+    }
+    // Stored on every start, not only the first: put_planet is idempotent, and a changed
+    // default.json is a new planet (a new id) that the alias must find in the store.
+    const StoredPlanet planet{planet::planet_id(*definition), planet::canonical_text(*definition),
+                              0};
+    StoreResult<PlanetPut> put = store_->put_planet(planet);
+    if (!put) return Error{file.string() + ": " + put.error().message, ""};
+    if (file.stem() == "default") {
+      std::lock_guard lock(planets_mutex_);
+      default_planet_id_ = planet.id;
+    }
+  }
   return terrain::Ok{};
+}
+
+std::string App::default_planet_id() const {
+  std::lock_guard lock(planets_mutex_);
+  return default_planet_id_;
+}
+
+terrain::Result<LoadedPlanet, Response> App::resolve_planet(const Request& request,
+                                                            const std::string& ref) {
+  const std::string id = ref == "default" ? default_planet_id() : ref;
+  if (id.empty()) {
+    return problem(request, http::status::not_found, "Not found",
+                   "this server has no built-in default planet (store.planets_dir/default.json)",
+                   "/id");
+  }
+  if (!valid_planet_id(id)) {
+    return problem(request, http::status::bad_request, "Bad planet id",
+                   "a planet id is the 64 lowercase hex digits of its definition's SHA-256, or "
+                   "'default'",
+                   "/id");
+  }
+  {
+    std::lock_guard lock(planets_mutex_);
+    if (auto it = planets_.find(id); it != planets_.end()) return it->second;
+  }
+  StoreResult<StoredPlanet> stored = store_->get_planet(id);
+  if (!stored) return store_problem(request, stored.error());
+  // Building the base mesh takes milliseconds, once per planet and process; two first requests
+  // at once may both build it, which costs time but changes nothing (the build is a pure
+  // function of the definition).
+  Result<std::shared_ptr<const planet::Planet>> built =
+      planet::Planet::from_json(json::parse(stored->canonical_json, nullptr, false));
+  if (!built) {
+    return problem(request, http::status::internal_server_error, "Stored planet unreadable",
+                   built.error().message, built.error().pointer);
+  }
+  LoadedPlanet loaded{std::move(stored).value(), std::move(built).value()};
+  std::lock_guard lock(planets_mutex_);
+  if (planets_.size() >= kLoadedPlanets) planets_.clear();
+  planets_.emplace(id, loaded);
+  return loaded;
+}
+
+Response App::list_planets(const Request& request) {
+  StoreResult<std::vector<StoredPlanet>> planets = store_->list_planets();
+  if (!planets) return store_problem(request, planets.error());
+  const std::string fallback = default_planet_id();
+  json list = json::array();
+  for (const StoredPlanet& p : *planets) list.push_back(planet_summary(p, p.id == fallback));
+  Response r = json_response(
+      request, http::status::ok,
+      {{"planets", list}, {"default", fallback.empty() ? json(nullptr) : json(fallback)}});
+  r.set(http::field::cache_control, "no-cache");
+  return r;
+}
+
+Response App::create_planet(const Request& request) {
+  if (Response auth = authorize(request); auth.result() != http::status::ok) return auth;
+  // The same validation as Planet::from_json, without building the base mesh on this I/O
+  // thread: the first product request builds it.
+  Result<planet::PlanetDefinition> definition = planet::parse_planet_text(request.body());
+  if (!definition) {
+    return problem(request, http::status::bad_request, "Invalid planet", definition.error().message,
+                   definition.error().pointer);
+  }
+  const StoredPlanet planet{planet::planet_id(*definition), planet::canonical_text(*definition), 0};
+  StoreResult<PlanetPut> put = store_->put_planet(planet);
+  if (!put) {
+    if (put.error().kind == StoreError::Kind::conflict) {
+      return problem(request, http::status::conflict, "Planet conflict", put.error().message);
+    }
+    return store_problem(request, put.error());
+  }
+  const std::string url = "/api/v1/planets/" + put->planet.id;
+  Response r = json_response(request, put->created ? http::status::created : http::status::ok,
+                             {{"id", put->planet.id},
+                              {"url", url},
+                              {"created_ms", put->planet.created_ms},
+                              {"definition", planet::canonical_json(*definition)}});
+  r.set(http::field::location, url);
+  r.set(http::field::etag, quote(put->planet.id));
+  return r;
+}
+
+Response App::get_planet(const Request& request, const std::string& ref) {
+  const std::string id = ref == "default" ? default_planet_id() : ref;
+  if (id.empty()) {
+    return problem(request, http::status::not_found, "Not found",
+                   "this server has no built-in default planet (store.planets_dir/default.json)",
+                   "/id");
+  }
+  if (!valid_planet_id(id)) {
+    return problem(request, http::status::bad_request, "Bad planet id",
+                   "a planet id is the 64 lowercase hex digits of its definition's SHA-256, or "
+                   "'default'",
+                   "/id");
+  }
+  StoreResult<StoredPlanet> stored = store_->get_planet(id);
+  if (!stored) return store_problem(request, stored.error());
+  // The id is the hash of exactly these bytes: the strongest ETag there is.
+  const std::string etag = quote(id);
+  auto cache_headers = [&](Response& r) {
+    r.set(http::field::etag, etag);
+    r.set(http::field::cache_control, ref == id ? kImmutable : kAliasCacheControl);
+    if (ref != id) r.set(http::field::content_location, "/api/v1/planets/" + id);
+  };
+  if (etag_matches(request, etag)) {
+    Response r = make_response(request, http::status::not_modified, "", "application/json");
+    cache_headers(r);
+    return r;
+  }
+  // The canonical text is sent as stored (never re-serialised, never compressed: it is small
+  // and its bytes are what the id hashes).
+  Response r = make_response(request, http::status::ok, stored->canonical_json, "application/json");
+  cache_headers(r);
+  return r;
+}
+
+Outcome App::planet_product(const Request& request, const std::string& ref,
+                            const std::vector<std::string>& rest, const Target& target) {
+  auto loaded_or = resolve_planet(request, ref);
+  if (!loaded_or) return loaded_or.error();
+  const LoadedPlanet loaded = std::move(loaded_or).value();
+  const std::string id = loaded.stored.id;
+  const std::shared_ptr<const planet::Planet> world = loaded.planet;
+  // Products of an id are immutable (the id is a content hash); through the alias they are
+  // revalidated now and then, since "default" may name another planet after a restart.
+  const std::string cache_control = ref == id ? kImmutable : kAliasCacheControl;
+  const std::string base = "/api/v1/planets/" + id;
+
+  auto finish_json = [&](const json& body) {
+    Response r = json_response(request, http::status::ok, body);
+    r.set(http::field::cache_control, cache_control);
+    const std::string etag = product_etag(r.body());
+    r.set(http::field::etag, etag);
+    if (etag_matches(request, etag)) {
+      r.result(http::status::not_modified);
+      r.body().clear();
+      r.erase(http::field::content_length);
+    }
+    return r;
+  };
+  auto geographic_only = [&]() -> std::optional<Response> {
+    const std::string scheme = target.get("scheme", "geographic");
+    if (scheme == "geographic") return std::nullopt;
+    return problem(request, http::status::bad_request, "Bad scheme",
+                   "planets are tiled in the geographic scheme (EPSG:4326, TMS) only", "/scheme");
+  };
+
+  if (rest.size() == 1 && rest[0] == "layer.json") {
+    if (auto bad = geographic_only()) return *bad;
+    terrain::LayerJsonOptions options;
+    options.name = "planet " + id.substr(0, 12);
+    options.description = "seeded planet " + id;
+    options.version = "1.0.0";
+    options.tiles = {base + "/mesh/{z}/{x}/{y}.terrain"};
+    return finish_json(planet::PlanetTiles::layer_json(options));
+  }
+  if (rest.size() == 1 && rest[0] == "tilejson.json") {
+    if (auto bad = geographic_only()) return *bad;
+    const std::string encoding = target.get("encoding", "terrain-rgb");
+    if (encoding != "terrain-rgb" && encoding != "terrarium") {
+      return problem(request, http::status::bad_request, "Bad encoding",
+                     "TileJSON for height tiles: encoding terrain-rgb or terrarium", "/encoding");
+    }
+    const auto host = request.find(http::field::host);
+    const std::string origin = host == request.end() ? "" : "http://" + std::string(host->value());
+    // Geographic TMS tiles (EPSG:4326, two tiles at zoom 0, rows counted from the south): for
+    // Cesium and GIS clients. MapLibre's raster-dem sources are EPSG:3857 only.
+    return finish_json({{"tilejson", "3.0.0"},
+                        {"name", "planet " + id.substr(0, 12)},
+                        {"description",
+                         "geographic (EPSG:4326) TMS height tiles, two at zoom 0; not for "
+                         "MapLibre, whose raster-dem sources are EPSG:3857"},
+                        {"version", "1.0.0"},
+                        {"scheme", "tms"},
+                        {"crs", "EPSG:4326"},
+                        {"tiles", {origin + base + "/tiles/{z}/{x}/{y}.png?encoding=" + encoding}},
+                        {"minzoom", 0},
+                        {"maxzoom", planet::PlanetTiles::max_zoom()},
+                        {"tileSize", 256},
+                        {"bounds", {-180.0, -90.0, 180.0, 90.0}},
+                        {"center", {0.0, 0.0, 1}},
+                        {"encoding", encoding == "terrain-rgb" ? "mapbox" : "terrarium"}});
+  }
+
+  const ReplyContext reply_base = ReplyContext::of(request, cache_control);
+  if (rest.size() == 1 && rest[0] == "sample") {
+    auto coordinate = [&](const char* key, double limit) -> std::optional<double> {
+      const auto v = parse_double(target.get(key));
+      if (!v || *v < -limit || *v > limit) return std::nullopt;
+      return v;
+    };
+    const auto lat = coordinate("lat", 90.0), lon = coordinate("lon", 180.0);
+    if (!lat) {
+      return problem(request, http::status::bad_request, "Bad sample",
+                     "lat must be a latitude in degrees, -90 to 90", "/lat");
+    }
+    if (!lon) {
+      return problem(request, http::status::bad_request, "Bad sample",
+                     "lon must be a longitude in degrees, -180 to 180", "/lon");
+    }
+    const double la = *lat, lo = *lon;
+    Deferred deferred;
+    deferred.cost = static_cast<double>(world->rules().max_level) + 40.0;
+    deferred.work = [=, this]() -> Response {
+      thread_local std::unordered_map<std::string, std::unique_ptr<planet::Sampler>> samplers;
+      if (samplers.size() >= kPlanetWorkersPerThread && !samplers.contains(id)) samplers.clear();
+      std::unique_ptr<planet::Sampler>& sampler = samplers[id];
+      if (!sampler) sampler = std::make_unique<planet::Sampler>(world);
+      const auto start = std::chrono::steady_clock::now();
+      json body = planet::sample_json(la, lo, sampler->sample(la, lo));
+      body["id"] = id;
+      metrics_.generation(
+          "planet_sample",
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "cpu");
+      const Request shadow = reply_base.shadow();
+      Response r = json_response(shadow, http::status::ok, body);
+      r.set(http::field::cache_control, reply_base.cache_control);
+      const std::string etag = product_etag(r.body());
+      r.set(http::field::etag, etag);
+      if (etag_matches(shadow, etag)) {
+        r.result(http::status::not_modified);
+        r.body().clear();
+        r.erase(http::field::content_length);
+      }
+      return r;
+    };
+    return deferred;
+  }
+
+  // Tiles and meshes on the geographic tiling: /tiles/{z}/{x}/{y}.{png,tif},
+  // /mesh/{z}/{x}/{y}.{terrain,glb,drc}
+  if (rest.size() != 4 || (rest[0] != "tiles" && rest[0] != "mesh")) {
+    return problem(request, http::status::not_found, "Not found",
+                   "no product '" + (rest.empty() ? std::string() : rest[0]) + "' of a planet");
+  }
+  auto query = parse_tile_query(request, rest, target.query, true);
+  if (!query) return query.error();
+  if (terrain::Status valid =
+          planet::PlanetTiles::validate(query->address, query->format, query->options);
+      !valid) {
+    return problem(request, http::status::bad_request, "Bad tile request", valid.error().message,
+                   valid.error().pointer);
+  }
+  // Cost: every sample (with the ring of neighbours the slopes use, and quantized-mesh's
+  // 256² water mask) descends the mesh hierarchy to the tile's level and sums the visible
+  // detail octaves.
+  const terrain::ProductOptions options = query->options;
+  const int cells = query->mesh ? options.grid - 1 : options.size;
+  const double spacing = world->ground_spacing(query->address.z, cells);
+  const double per_sample = static_cast<double>(world->level_for_spacing(spacing)) +
+                            std::ceil(world->octaves_for_spacing(spacing)) + 1.0;
+  const double side = query->mesh ? options.grid + 2.0 : options.size + 2.0 * query->border + 2.0;
+  const bool water_mask = query->format == terrain::TileFormat::quantized_mesh && options.watermask;
+  const double samples = side * side + (water_mask ? 258.0 * 258.0 : 0.0);
+  const double cost = samples * per_sample;
+  if (cost > config_.max_cost) {
+    return problem(request, http::status::unprocessable_entity, "Too costly",
+                   "this product would cost " + std::to_string(static_cast<long long>(cost)) +
+                       " (samples x (mesh levels + detail octaves)), above the limit of " +
+                       std::to_string(static_cast<long long>(config_.max_cost)));
+  }
+  // "planet:" keeps planet keys apart from scene keys (which start with "sha256:").
+  const std::string cache_key = "planet:" + id + query->key();
+  ReplyContext reply = reply_base;
+  if (query->format == terrain::TileFormat::gray16) {
+    reply.gray16 = terrain::gray16_encoding_for(world->elevation_range());
+  }
+  if (auto hit = cache_.find(cache_key)) return product_response(reply, hit);
+  if (disk_cache_) {
+    if (auto hit = disk_cache_->find(cache_key)) {
+      cache_.insert(cache_key, hit);
+      return product_response(reply, hit);
+    }
+  }
+  const terrain::TileAddress address = query->address;
+  const terrain::TileFormat format = query->format;
+  Deferred deferred;
+  deferred.cost = cost;
+  deferred.work = [=, this]() -> Response {
+    // One PlanetTiles per planet and thread: it keeps refined triangles between tiles (the
+    // bytes never depend on them), and is not thread-safe.
+    thread_local std::unordered_map<std::string, std::unique_ptr<planet::PlanetTiles>> tilers;
+    if (tilers.size() >= kPlanetWorkersPerThread && !tilers.contains(id)) tilers.clear();
+    std::unique_ptr<planet::PlanetTiles>& tiles = tilers[id];
+    if (!tiles) tiles = std::make_unique<planet::PlanetTiles>(world);
+    const auto start = std::chrono::steady_clock::now();
+    Result<terrain::Product> product = tiles->make(address, format, options);
+    const terrain::TileFormatInfo& info = terrain::format_info(format);
+    metrics_.generation(
+        "planet_" + std::string(info.encoding.empty() ? info.extension : info.encoding),
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "cpu");
+    if (!product) {
+      return problem(reply.shadow(), http::status::bad_request, "Bad tile request",
+                     product.error().message, product.error().pointer);
+    }
+    auto cached = std::make_shared<CachedProduct>();
+    cached->body.assign(product->bytes.begin(), product->bytes.end());
+    cached->media_type = product->media_type;
+    cached->content_encoding = product->content_encoding;
+    cached->etag = product_etag(cached->body);
+    cached->backend = "cpu";  // planets have no GPU path yet
+    cache_.insert(cache_key, cached);
+    if (disk_cache_) disk_cache_->insert(cache_key, *cached);
+    return product_response(reply, cached);
+  };
+  return deferred;
 }
 
 }  // namespace server

@@ -60,6 +60,8 @@ const std::vector<Option>& options() {
        "directory of the SQLite store (terrain.sqlite3)"},
       {"store.scenes_dir", "--scenes-dir", "TERRAIN_SCENES_DIR", &Config::scenes_dir, 0, 0,
        "built-in example scenes loaded into an empty store"},
+      {"store.planets_dir", "--planets-dir", "TERRAIN_PLANETS_DIR", &Config::planets_dir, 0, 0,
+       "built-in planets stored at start; default.json is /api/v1/planets/default"},
       {"client.dir", "--client-dir", "TERRAIN_CLIENT_DIR", &Config::client_dir, 0, 0,
        "static browser client served at /"},
       {"auth.write_token", "--write-token", "TERRAIN_WRITE_TOKEN", &Config::write_token, 0, 0,

@@ -46,6 +46,14 @@ constexpr const char* kMigrations[] = {
       bytes BLOB NOT NULL
     );
     )sql",
+    // 2: planet definitions, keyed by the content hash of their canonical JSON.
+    R"sql(
+    CREATE TABLE planets (
+      id TEXT PRIMARY KEY,
+      body TEXT NOT NULL,
+      created_ms INTEGER NOT NULL
+    );
+    )sql",
 };
 
 std::int64_t now_ms() {
@@ -261,6 +269,57 @@ class SqliteStore final : public Store {
     if (rc == SQLITE_DONE) return StoreError{Kind::not_found, "no blob " + hash};
     if (rc != SQLITE_ROW) return failure("cannot read blob " + hash);
     return Blob{q.text(0), q.text(1), q.blob(2)};
+  }
+
+  StoreResult<PlanetPut> put_planet(const StoredPlanet& planet) override {
+    if (planet.id.empty() || planet.canonical_json.empty()) {
+      return StoreError{Kind::conflict, "a planet needs an id and a body"};
+    }
+    std::lock_guard lock(mutex_);
+    // One transaction: the look-up and the insert cannot interleave with another writer's.
+    if (!exec("BEGIN IMMEDIATE")) return failure("cannot begin a transaction");
+    Statement q(db_, "SELECT id, body, created_ms FROM planets WHERE id = ?");
+    q.bind(1, planet.id);
+    const int rc = q.step();
+    if (rc == SQLITE_ROW) {
+      StoredPlanet existing{q.text(0), q.text(1), q.integer(2)};
+      exec("ROLLBACK");
+      if (existing.canonical_json != planet.canonical_json) {
+        return StoreError{Kind::conflict,
+                          "planet " + planet.id + " is stored with another definition"};
+      }
+      return PlanetPut{std::move(existing), false};
+    }
+    StoredPlanet stored = planet;
+    stored.created_ms = now_ms();
+    Statement insert(db_, "INSERT INTO planets (id, body, created_ms) VALUES (?, ?, ?)");
+    insert.bind(1, stored.id).bind(2, stored.canonical_json).bind(3, stored.created_ms);
+    if (rc != SQLITE_DONE || insert.step() != SQLITE_DONE || !exec("COMMIT")) {
+      exec("ROLLBACK");
+      return failure("cannot store planet " + planet.id);
+    }
+    return PlanetPut{std::move(stored), true};
+  }
+
+  StoreResult<StoredPlanet> get_planet(const std::string& id) override {
+    std::lock_guard lock(mutex_);
+    Statement q(db_, "SELECT id, body, created_ms FROM planets WHERE id = ?");
+    q.bind(1, id);
+    const int rc = q.step();
+    if (rc == SQLITE_DONE) return StoreError{Kind::not_found, "no planet " + id};
+    if (rc != SQLITE_ROW) return failure("cannot read planet " + id);
+    return StoredPlanet{q.text(0), q.text(1), q.integer(2)};
+  }
+
+  StoreResult<std::vector<StoredPlanet>> list_planets() override {
+    std::lock_guard lock(mutex_);
+    Statement q(db_, "SELECT id, body, created_ms FROM planets ORDER BY created_ms, id");
+    if (!q.ok()) return failure("cannot list planets");
+    std::vector<StoredPlanet> out;
+    int rc = 0;
+    while ((rc = q.step()) == SQLITE_ROW) out.push_back({q.text(0), q.text(1), q.integer(2)});
+    if (rc != SQLITE_DONE) return failure("cannot list planets");
+    return out;
   }
 
   StoreResult<bool> empty() override {

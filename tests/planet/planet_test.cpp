@@ -161,6 +161,58 @@ TEST(PlanetRefinement, HeightsDoNotDependOnWhatWasEvaluatedBefore) {
   }
 }
 
+// Tiles start each sample's descent at a triangle shared by a block of samples (DescentStart).
+// Whatever the block — tiny or wide, deep or shallow, astride the octahedron's edges and the
+// antimeridian — every sample must land where a lone descent from the root lands: same ground,
+// water, type and river distance, bit for bit.
+TEST(PlanetRefinement, DescentStartsGiveTheSamplesOfADescentFromTheRoot) {
+  const auto& world = shared_planet();
+  std::mt19937_64 random(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int started = 0, total = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    // Centres anywhere, and some exactly on octahedron edges (the equator, lon 0, ±90, 180).
+    double lat = -89.0 + 178.0 * unit(random), lon = -180.0 + 360.0 * unit(random);
+    if (trial % 4 == 1) lat = 0.0;
+    if (trial % 4 == 2) lon = 90.0 * std::floor(unit(random) * 4.0) - 180.0;
+    const double extent = std::ldexp(30.0, -static_cast<int>(unit(random) * 20.0));  // degrees
+    const int level = world->rules().mesh_level + static_cast<int>(unit(random) * 28.0);
+    const double octaves = 3.0 * unit(random);
+    auto direction = [&](double i, double j) {
+      double la = std::clamp(lat + extent * (i - 0.5), -90.0, 90.0);
+      double lo = lon + extent * (j - 0.5);
+      if (lo >= 180.0) lo -= 360.0;
+      if (lo < -180.0) lo += 360.0;
+      return world->geodesy().direction(la, lo);
+    };
+    constexpr int kSide = 9;
+    std::vector<Vec3d> outline;
+    for (int k = 0; k < kSide; ++k) {
+      const double f = k / (kSide - 1.0);
+      for (const Vec3d& p : {direction(0, f), direction(1, f), direction(f, 0), direction(f, 1)}) {
+        outline.push_back(p);
+      }
+    }
+    Sampler blocked(world), lone(world);
+    const DescentStart start = blocked.descent_start(direction(0.5, 0.5), outline, level);
+    for (int i = 0; i < kSide; ++i) {
+      for (int j = 0; j < kSide; ++j) {
+        const Vec3d p = direction(i / (kSide - 1.0), j / (kSide - 1.0));
+        started += start.holds(p) ? 1 : 0;
+        ++total;
+        const PointSample a = blocked.at(p, level, octaves, start);
+        const PointSample b = lone.at(p, level, octaves);
+        ASSERT_EQ(a.ground, b.ground) << lat << ", " << lon << " extent " << extent;
+        ASSERT_EQ(a.water, b.water);
+        ASSERT_EQ(a.type, b.type);
+        ASSERT_EQ(a.river_distance, b.river_distance);
+      }
+    }
+  }
+  // Most samples did use a start (else this would test nothing).
+  EXPECT_GT(started, total / 2);
+}
+
 TEST(PlanetRefinement, TrianglesStayPositivelyOrientedSoRiversCannotCross) {
   const BaseMesh& mesh = shared_planet()->base_mesh();
   const std::int32_t base = leaf_with(mesh, kRiver);

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "planet/definition.hpp"
 #include "server/app.hpp"
 
 namespace server {
@@ -24,6 +25,7 @@ class AppTest : public ::testing::Test {
     Config config;
     config.data_dir = dir_.string();
     config.scenes_dir = std::string(TERRAIN_SOURCE_DIR) + "/config/scenes";
+    config.planets_dir = std::string(TERRAIN_SOURCE_DIR) + "/config/planets";
     auto store = open_sqlite_store(config.data_dir);
     ASSERT_TRUE(store.ok());
     app_ = new App(config, std::move(store).value());
@@ -64,19 +66,53 @@ TEST_F(AppTest, EveryDocumentedPathIsRouted) {
       const std::size_t at = target.find("{" + name + "}");
       if (at != std::string::npos) target.replace(at, name.size() + 2, value);
     };
+    const bool planet = path.starts_with("/api/v1/planets/");
     fill("ref", "hills-river@1");
-    fill("id", "hills-river");
+    fill("id", planet ? "default" : "hills-river");
     fill("z", "0");
     fill("x", "0");
     fill("y", "0");
     if (target.find(".terrain") != std::string::npos) target += "?scheme=geographic";
-    if (target.ends_with("/sample")) target += "?x=1&y=2";
+    if (planet && target.ends_with("/sample")) {
+      target += "?lat=20&lon=20";
+    } else if (target.ends_with("/sample")) {
+      target += "?x=1&y=2";
+    }
+    if (planet && target.find("/mesh/") != std::string::npos) {
+      target += target.find('?') == std::string::npos ? "?grid=17" : "&grid=17";
+    }
     if (target.ends_with("/render.png")) target += "?width=64&height=48";
     const Response r = get(target);
     EXPECT_EQ(r.result(), http::status::ok) << target << ": " << r.body().view();
     ++checked;
   }
-  EXPECT_GE(checked, 14);
+  EXPECT_GE(checked, 22);
+}
+
+// /metrics keeps planet routes apart from the scene routes of the same shape.
+TEST_F(AppTest, PlanetRoutesHaveMetricLabelsOfTheirOwn) {
+  auto label = [](const std::string& target) {
+    return std::string(App::route_label(Request{http::verb::get, target, 11}));
+  };
+  EXPECT_EQ(label("/api/v1/planets"), "planets");
+  EXPECT_EQ(label("/api/v1/planets/default"), "planet");
+  EXPECT_EQ(label("/api/v1/planets/default/tiles/1/2/0.png?encoding=terrarium"), "planet_tiles");
+  EXPECT_EQ(label("/api/v1/planets/default/mesh/1/2/0.terrain"), "planet_mesh");
+  EXPECT_EQ(label("/api/v1/planets/default/sample?lat=1&lon=2"), "planet_sample");
+  EXPECT_EQ(label("/api/v1/planets/default/layer.json"), "planet_layer.json");
+  EXPECT_EQ(label("/api/v1/planets/default/tilejson.json"), "planet_tilejson.json");
+  EXPECT_EQ(label("/api/v1/scenes/craters/tiles/1/1/0.png"), "tiles");
+}
+
+// The built-in default planet is stored at start and "default" names it.
+TEST_F(AppTest, DefaultPlanetIsSeededAndAliased) {
+  auto definition =
+      planet::load_planet_file(std::string(TERRAIN_SOURCE_DIR) + "/config/planets/default.json");
+  ASSERT_TRUE(definition.ok());
+  EXPECT_EQ(app_->default_planet_id(), planet::planet_id(*definition));
+  const Response r = get("/api/v1/planets/default");
+  ASSERT_EQ(r.result(), http::status::ok) << r.body().view();
+  EXPECT_EQ(r.body().view(), planet::canonical_text(*definition));
 }
 
 TEST_F(AppTest, GeneratedTilesAreCachedAndIdentical) {

@@ -80,7 +80,8 @@ class TempDir {
 class ServerProcess {
  public:
   /// Starts the server on 127.0.0.1 with any free port, an empty config file (so only these
-  /// flags and the built-in defaults apply), the repository's built-in scenes and `data_dir`.
+  /// flags and the built-in defaults apply), the repository's built-in scenes and planets and
+  /// `data_dir`.
   ServerProcess(const fs::path& data_dir, const std::vector<std::string>& flags) {
     const fs::path config = data_dir.parent_path() / (data_dir.filename().string() + ".toml");
     std::ofstream(config) << "# empty: flags only\n";
@@ -95,6 +96,8 @@ class ServerProcess {
                                      data_dir.string(),
                                      "--scenes-dir",
                                      std::string(TERRAIN_SOURCE_DIR) + "/config/scenes",
+                                     "--planets-dir",
+                                     std::string(TERRAIN_SOURCE_DIR) + "/config/planets",
                                      "--backend",
                                      "cpu",
                                      "--io-threads",

@@ -127,5 +127,43 @@ TEST_F(StoreTest, MissingAndDuplicateAreClassified) {
   EXPECT_EQ(store_->version("a", 2).error().kind, StoreError::Kind::not_found);
 }
 
+TEST_F(StoreTest, PlanetsAreStoredOnceByIdAndSurviveReopening) {
+  EXPECT_TRUE(store_->list_planets()->empty());
+  const StoredPlanet a{std::string(64, 'a'), "{\"seed\":1}", 0};
+  const StoredPlanet b{std::string(64, 'b'), "{\"seed\":2}", 0};
+  StoreResult<PlanetPut> first = store_->put_planet(a);
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  EXPECT_TRUE(first->created);
+  EXPECT_GT(first->planet.created_ms, 0);
+  // The same planet again is no error and changes nothing: the stored one comes back.
+  StoreResult<PlanetPut> again = store_->put_planet(a);
+  ASSERT_TRUE(again.ok());
+  EXPECT_FALSE(again->created);
+  EXPECT_EQ(again->planet.created_ms, first->planet.created_ms);
+  ASSERT_TRUE(store_->put_planet(b).ok());
+  store_ = open_or_die();
+  EXPECT_EQ(store_->get_planet(a.id)->canonical_json, a.canonical_json);
+  const auto all = store_->list_planets();
+  ASSERT_EQ(all->size(), 2u);
+  EXPECT_EQ((*all)[0].id, a.id);  // oldest first
+  EXPECT_EQ((*all)[1].id, b.id);
+  EXPECT_TRUE(*store_->empty());  // planets are not scenes: the example scenes still load
+}
+
+// An id names one body (it is that body's hash): another body under it is refused, and so is a
+// planet without an id or body; neither writes anything.
+TEST_F(StoreTest, RefusedPlanetWritesStoreNothing) {
+  const StoredPlanet a{std::string(64, 'a'), "{\"seed\":1}", 0};
+  ASSERT_TRUE(store_->put_planet(a).ok());
+  StoreResult<PlanetPut> other = store_->put_planet({a.id, "{\"seed\":2}", 0});
+  ASSERT_FALSE(other.ok());
+  EXPECT_EQ(other.error().kind, StoreError::Kind::conflict);
+  EXPECT_EQ(store_->get_planet(a.id)->canonical_json, a.canonical_json);
+  EXPECT_FALSE(store_->put_planet({"", "{}", 0}).ok());
+  EXPECT_FALSE(store_->put_planet({std::string(64, 'c'), "", 0}).ok());
+  EXPECT_EQ(store_->list_planets()->size(), 1u);
+  EXPECT_EQ(store_->get_planet(std::string(64, 'c')).error().kind, StoreError::Kind::not_found);
+}
+
 }  // namespace
 }  // namespace server

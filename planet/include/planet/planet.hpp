@@ -4,7 +4,10 @@
 // what else was evaluated, in what order or on which thread.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -65,6 +68,29 @@ class Planet {
   std::unique_ptr<BaseMesh> base_;
   Geodesy geodesy_;
   std::string id_;
+  // Constants of every sample, computed once (the same expressions the samples used to
+  // evaluate each time, so the same values).
+  terrain::Interval elevation_range_;
+  double detail_gain_ = 0.0;
+  std::uint32_t detail_seed_ = 0;
+};
+
+/// Where a group of nearby samples may start their descent instead of the octahedron: a
+/// triangle of the sampler's hierarchy and its edges' planes. Levels are triangulations whose
+/// children are the sectors of their diamond, so the descent of a point at level k ends in the
+/// level-k triangle that holds it; a point inside this triangle by a margin far above the
+/// rounding of the descent's determinants (1e-12 against ~1e-15) therefore descends through it,
+/// and starting there gives the same leaf, bit for bit. Points nearer an edge start at the root.
+struct DescentStart {
+  std::int32_t tri = -1;         ///< −1: none (every point starts at the root)
+  std::uint64_t generation = 0;  ///< the sampler's trim count when it was found
+  int level = 0;
+  std::array<Vec3d, 3> normal{};  ///< cross(v_k, v_k+1): p is inside when every dot is > margin
+  static constexpr double kMargin = 1e-12;
+  bool holds(const Vec3d& p) const {
+    return tri >= 0 && dot(normal[0], p) > kMargin && dot(normal[1], p) > kMargin &&
+           dot(normal[2], p) > kMargin;
+  }
 };
 
 /// Evaluates points of one planet. Keeps the refined hierarchy between calls as a cache (results
@@ -81,14 +107,23 @@ class Sampler {
   PointSample sample(double latitude, double longitude, double spacing);
   /// At a direction, mesh level and octave count.
   PointSample at(const Vec3d& direction, int level, double octaves);
+  /// The same, descending from `start` when it holds the direction (identical results).
+  PointSample at(const Vec3d& direction, int level, double octaves, const DescentStart& start);
+  /// The deepest triangle, at most `level`, on the way down to `centre` that holds every one
+  /// of `points` by the margin: a start for the samples in and around them.
+  DescentStart descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level);
 
   /// Triangles in the cache; trim() drops everything beyond the base mesh.
   std::size_t cached_triangles() const { return hierarchy_.tris.size(); }
   void trim();
 
  private:
+  PointSample evaluate(std::int32_t leaf, const Vec3d& direction, int level, double octaves);
+  void trim_when_large();
+
   std::shared_ptr<const Planet> planet_;
   Hierarchy hierarchy_;
+  std::uint64_t generation_ = 0;  ///< trims so far: a DescentStart of another is stale
 };
 
 /// {"latitude", "longitude", "ground", "water", "type", "level"}: the sample route's body.

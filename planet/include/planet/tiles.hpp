@@ -32,8 +32,9 @@ class PlanetTiles {
 
   /// Checks the address (geographic scheme), format and options; the error names the field
   /// ("/z", "/x", "/size", "/grid", "/max_error").
-  terrain::Status validate(const terrain::TileAddress& address, terrain::TileFormat format,
-                           const terrain::ProductOptions& options) const;
+  /// Static: it depends on no planet, so servers check a request before any work.
+  static terrain::Status validate(const terrain::TileAddress& address, terrain::TileFormat format,
+                                  const terrain::ProductOptions& options);
 
   /// Heights and slopes (east, north) of a geographic tile request. Samples at the same place in
   /// two tiles of one zoom and size are bit-identical (positions come from global sample
@@ -52,7 +53,8 @@ class PlanetTiles {
                                 const terrain::ProductOptions& options = {});
 
   /// Cesium's layer.json: every tile exists at every zoom up to max_zoom().
-  nlohmann::json layer_json(const terrain::LayerJsonOptions& base) const;
+  /// Static: availability is the same for every planet.
+  static nlohmann::json layer_json(const terrain::LayerJsonOptions& base);
 
  private:
   Result<terrain::HeightTile> evaluate(const terrain::TileRequest& request,

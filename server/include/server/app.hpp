@@ -9,6 +9,7 @@
 #include <string>
 #include <unordered_map>
 
+#include "planet/planet.hpp"
 #include "server/cache.hpp"
 #include "server/config.hpp"
 #include "server/disk_cache.hpp"
@@ -27,6 +28,12 @@ struct LoadedVersion {
   std::shared_ptr<const terrain::Scene> scene;
 };
 
+/// A stored planet with its definition parsed and its base mesh built, shared by every thread.
+struct LoadedPlanet {
+  StoredPlanet stored;
+  std::shared_ptr<const planet::Planet> planet;
+};
+
 class App {
  public:
   App(Config config, std::unique_ptr<Store> store);
@@ -35,8 +42,13 @@ class App {
   Outcome handle(const Request& request);
 
   /// Loads the built-in example scenes (config.scenes_dir) when the store holds no scene yet;
-  /// their images become stored blobs referenced by hash.
+  /// their images become stored blobs referenced by hash. Then seeds the planets.
   terrain::Status seed_examples();
+  /// Stores the built-in planets (config.planets_dir/*.json; idempotent, as planets are keyed
+  /// by their content hash) and makes default.json's the one the alias "default" names.
+  terrain::Status seed_planets();
+  /// The id "default" stands for ("" when there is no built-in default planet).
+  std::string default_planet_id() const;
 
   const Config& config() const { return config_; }
   /// The evaluator chosen from generation.backend, and why (for the start-up log).
@@ -62,6 +74,15 @@ class App {
   Outcome render(const Request& request, const LoadedVersion& loaded, const Target& target);
   Response authorize(const Request& request) const;  // result() == ok when allowed
 
+  Response list_planets(const Request& request);
+  Response create_planet(const Request& request);
+  Response get_planet(const Request& request, const std::string& ref);
+  Outcome planet_product(const Request& request, const std::string& ref,
+                         const std::vector<std::string>& rest, const Target& target);
+  /// The planet an id (or "default") names: 400 for a malformed id, 404 for an unknown one.
+  terrain::Result<LoadedPlanet, Response> resolve_planet(const Request& request,
+                                                         const std::string& ref);
+
   terrain::Result<LoadedVersion, Response> resolve(const Request& request, const std::string& ref);
   terrain::Result<LoadedVersion, Response> load_version(const Request& request,
                                                         const SceneVersion& version);
@@ -82,6 +103,10 @@ class App {
   std::unordered_map<std::string, std::pair<LoadedVersion, std::chrono::steady_clock::time_point>>
       resolved_;
   void forget_head(const std::string& id);
+
+  mutable std::mutex planets_mutex_;
+  std::unordered_map<std::string, LoadedPlanet> planets_;  // by id (bounded; ids never go stale)
+  std::string default_planet_id_;
 };
 
 }  // namespace server

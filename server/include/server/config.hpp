@@ -36,9 +36,10 @@ struct Config {
   std::string disk_cache_dir;              ///< empty = no on-disk cache
   std::int64_t disk_cache_bytes = 2ll << 30;
   // storage
-  std::string data_dir = "data";             ///< holds terrain.sqlite3
-  std::string scenes_dir = "config/scenes";  ///< built-in scenes loaded on first start
-  std::string client_dir = "client_web";     ///< static files served at /
+  std::string data_dir = "data";               ///< holds terrain.sqlite3
+  std::string scenes_dir = "config/scenes";    ///< built-in scenes loaded on first start
+  std::string planets_dir = "config/planets";  ///< built-in planets; default.json is "default"
+  std::string client_dir = "client_web";       ///< static files served at /
   std::string write_token;  ///< required (Bearer) on every write; empty = writes refused
   // limits
   int header_limit = 8 * 1024;

@@ -1,5 +1,6 @@
-// Durable storage of scenes, their immutable versions and uploaded images. The interface is what
-// the HTTP layer needs; SQLite (embedded default) implements it here, PostgreSQL will later.
+// Durable storage of scenes, their immutable versions, uploaded images and planet definitions. The
+// interface is what the HTTP layer needs; SQLite (embedded default) implements it here, PostgreSQL
+// will later.
 #pragma once
 
 #include <cstdint>
@@ -52,6 +53,21 @@ struct Blob {
   std::vector<std::uint8_t> bytes;
 };
 
+/// A stored planet definition. Its id is the SHA-256 of its canonical JSON (planet_id), so a
+/// definition is stored once however often it is posted.
+struct StoredPlanet {
+  std::string id;               ///< 64 lowercase hex characters
+  std::string canonical_json;   ///< planet::canonical_text of the definition
+  std::int64_t created_ms = 0;  ///< Unix time in milliseconds of the first store
+};
+
+/// What put_planet did: stored the planet, or found it stored already (then `planet` is the
+/// stored one, with its original creation time).
+struct PlanetPut {
+  StoredPlanet planet;
+  bool created = false;
+};
+
 /// Thread-safe: every method may be called from any thread.
 class Store {
  public:
@@ -75,6 +91,12 @@ class Store {
   /// Stores a blob under its hash (idempotent).
   virtual StoreResult<bool> put_blob(const Blob& blob) = 0;
   virtual StoreResult<Blob> blob(const std::string& hash) = 0;
+  /// Stores a planet under its id; idempotent. The same id with another body is a conflict
+  /// (the id is a content hash, so that means a caller bug or corruption) and writes nothing.
+  virtual StoreResult<PlanetPut> put_planet(const StoredPlanet& planet) = 0;
+  virtual StoreResult<StoredPlanet> get_planet(const std::string& id) = 0;
+  /// Every stored planet, oldest first (ties by id).
+  virtual StoreResult<std::vector<StoredPlanet>> list_planets() = 0;
   /// True when no scene has ever been stored (built-in examples are loaded then).
   virtual StoreResult<bool> empty() = 0;
 };
