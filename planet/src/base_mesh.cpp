@@ -1,6 +1,6 @@
 #include "planet/base_mesh.hpp"
 
-#include <openssl/evp.h>
+#include "terrain/scene.hpp"
 
 #include <algorithm>
 #include <cassert>
@@ -485,9 +485,10 @@ std::unique_ptr<BaseMesh> build_base_mesh(const PlanetDefinition& definition,
 }
 
 std::string BaseMesh::hash() const {
-  EVP_MD_CTX* context = EVP_MD_CTX_new();
-  EVP_DigestInit_ex(context, EVP_sha256(), nullptr);
-  auto feed = [&](const void* data, std::size_t size) { EVP_DigestUpdate(context, data, size); };
+  std::string bytes;  // every field in a fixed order, hashed at once
+  auto feed = [&](const void* data, std::size_t size) {
+    bytes.append(static_cast<const char*>(data), size);
+  };
   for (const Vertex& v : hierarchy.vertices) {
     feed(v.p.data(), sizeof(double) * 3);
     feed(&v.seed, sizeof v.seed);
@@ -504,17 +505,7 @@ std::string BaseMesh::hash() const {
     feed(t.edge.data(), 3);
     feed(&t.face, 1);
   }
-  std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
-  unsigned int length = 0;
-  EVP_DigestFinal_ex(context, digest.data(), &length);
-  EVP_MD_CTX_free(context);
-  std::string hex;
-  for (unsigned int i = 0; i < length; ++i) {
-    std::array<char, 3> byte{};
-    std::snprintf(byte.data(), byte.size(), "%02x", digest[i]);
-    hex += byte.data();
-  }
-  return hex;
+  return terrain::sha256_hex(bytes);
 }
 
 }  // namespace planet

@@ -1,6 +1,6 @@
 #include "planet/definition.hpp"
 
-#include <openssl/evp.h>
+#include "terrain/scene.hpp"
 
 #include <algorithm>
 #include <array>
@@ -203,16 +203,7 @@ std::string canonical_text(const PlanetDefinition& d) {
 
 std::string planet_id(const PlanetDefinition& d) {
   const std::string text = canonical_text(d);
-  std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
-  unsigned int length = 0;
-  EVP_Digest(text.data(), text.size(), digest.data(), &length, EVP_sha256(), nullptr);
-  std::string hex;
-  for (unsigned int i = 0; i < length; ++i) {
-    std::array<char, 3> byte{};
-    std::snprintf(byte.data(), byte.size(), "%02x", digest[i]);
-    hex += byte.data();
-  }
-  return hex;
+  return terrain::sha256_hex(text);
 }
 
 }  // namespace planet

@@ -82,15 +82,7 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
   }
   if (terrain::Status valid = terrain::validate_request(request); !valid) return valid.error();
   const Planet& world = planet();
-  HeightTile tile;
-  tile.scheme = request.scheme;
-  tile.address = request.address;
-  tile.layout = request.layout;
-  tile.cells = request.cells;
-  tile.border = request.border;
-  tile.width = tile.height = request.layout == SampleLayout::cell_centres
-                                 ? request.cells + 2 * request.border
-                                 : request.cells + 1;
+  HeightTile tile = terrain::tile_layout_for(request);
   tile.world = {-180.0, -90.0, 180.0, 90.0};
   const TileAddress& a = request.address;
   const double size = 180.0 / std::ldexp(1.0, a.z);  // degrees per tile, both ways

@@ -364,9 +364,7 @@ Result<HeightTile> TileGenerator::height_tile(const TileRequest& request) {
   return height_tile(request, mapped);
 }
 
-Result<HeightTile> TileGenerator::height_tile(const TileRequest& request,
-                                              std::vector<std::uint8_t>& mapped) {
-  if (Status valid = validate_request(request); !valid) return valid.error();
+HeightTile tile_layout_for(const TileRequest& request) {
   HeightTile tile;
   tile.scheme = request.scheme;
   tile.address = request.address;
@@ -376,6 +374,13 @@ Result<HeightTile> TileGenerator::height_tile(const TileRequest& request,
   tile.width = tile.height = request.layout == SampleLayout::cell_centres
                                  ? request.cells + 2 * request.border
                                  : request.cells + 1;
+  return tile;
+}
+
+Result<HeightTile> TileGenerator::height_tile(const TileRequest& request,
+                                              std::vector<std::uint8_t>& mapped) {
+  if (Status valid = validate_request(request); !valid) return valid.error();
+  HeightTile tile = tile_layout_for(request);
   tile.world = world_bounds(source_, request.scheme);
   {
     const double cols = static_cast<double>(columns_at(tile.scheme, tile.address.z));

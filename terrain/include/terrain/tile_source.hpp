@@ -79,6 +79,10 @@ struct TileRequest {
   int border = 0;   ///< cell_centres only
 };
 
+/// A tile with the request's scheme, address, sample layout and size set, and nothing else
+/// (bounds, spacing and samples are the producer's).
+HeightTile tile_layout_for(const TileRequest& request);
+
 /// Checks the address and the sizes; the error's pointer names the field ("/z", "/cells", ...).
 Status validate_request(const TileRequest& request);
 
