@@ -20,3 +20,7 @@ uvec4 fetch_code(uint pc) { return program_code[pc]; }
 uint fetch_pool_uint(uint i) { return program_pool[i]; }
 float fetch_pool(uint i) { return uintBitsToFloat(program_pool[i]); }
 uint program_size() { return u_program_size; }
+
+// The sphere tracer's Lipschitz grid (terrain::LipschitzGrid::pack()); bound only when tracing.
+layout(std430, binding = 4) readonly buffer TraceBounds { float trace_bounds[]; };
+float fetch_bounds(uint i) { return trace_bounds[i]; }

@@ -18,6 +18,7 @@ const uint kOpWarpEnd = 8u;
 const uint kTypeDisc = 1u;
 const uint kTypeCurve = 2u;
 const uint kTypeContour = 3u;
+const uint kTypeImage = 4u;
 const uint kTypeReplace = 17u;
 const uint kTypeAdd = 18u;
 const uint kTypeLod = 19u;
@@ -38,6 +39,7 @@ Field leaf_field(uint type, uint at, bool weighted_only, vec2 p, float spacing) 
     return curve_leaf(at, p, cutoff);
   }
   if (type == kTypeContour) return contour_leaf(at, p);
+  if (type == kTypeImage) return image_leaf(at, p);
   // Unsupported types are refused by the host before a program is run; NaN makes misuse loud.
   float nan = uintBitsToFloat(0x7fc00000u);
   return Field(nan, nan, nan, nan, nan, nan);

@@ -1,6 +1,7 @@
 // Node kernels: ports of terrain/src/nodes/*.cpp and of the geometry they read
-// (terrain/src/{profile,polyline,contour}.cpp), one point at a time. Parameters are read from the
-// pool at the node's offset, in the layouts those files document. Needs noise.glsl.
+// (terrain/src/{profile,polyline,contour,heightfield}.cpp), one point at a time. Parameters are read
+// from the pool at the node's offset, in the layouts those files document. Needs noise.glsl and
+// portable_math.glsl.
 
 // f, α and both gradients at one point (a FieldBlock lane).
 struct Field {
@@ -273,7 +274,7 @@ Field contour_leaf(uint at, vec2 p) {
   TERRAIN_PRECISE float r = sqrt(l.x * l.x + l.y * l.y);
   TERRAIN_PRECISE float ly = -sn * l.x + cs * l.y;
   TERRAIN_PRECISE float lx = cs * l.x + sn * l.y;
-  float theta = atan(ly, lx);
+  float theta = portable_atan2(ly, lx);  // bit for bit the CPU's angle
   if (theta < 0.0) theta += kTwoPi;
   if (theta >= kTwoPi) theta = 0.0;
   // Radius spline (radius_eval).
@@ -331,6 +332,230 @@ Field contour_leaf(uint at, vec2 p) {
   TERRAIN_PRECISE float ax = g.y * gx;
   TERRAIN_PRECISE float ay = g.y * gy;
   return Field(f, g.x, grad.x, grad.y, ax, ay);
+}
+
+// ---------------------------------------------------------------------------------------------
+// image (type 4): 0 λ_f, 1 λ_α, 2 h_lo, 3 h_hi, 4..7 box, 8 mapping record, 9 heightfield record
+// (offsets relative to the node), 10 mapping (0 quad, 1 curve), 11 width, 12 curve length
+// (nodes/image.cpp). The heightfield and quad functions are line-by-line ports of
+// terrain/src/heightfield.cpp. Image samples are read through fetch_image(i), i being the
+// sample's pool index: a prelude that keeps images apart (a WebGL2 texture) defines
+// TERRAIN_HAS_FETCH_IMAGE and its own fetch_image; otherwise they are read from the pool, where
+// Heightfield::pack stores them.
+
+#ifndef TERRAIN_HAS_FETCH_IMAGE
+float fetch_image(uint i) { return fetch_pool(i); }
+#endif
+
+// A scalar and its derivatives with respect to (u, v) (terrain::UvSample).
+struct UvSample {
+  float value;
+  float du;
+  float dv;
+};
+
+// (u, v) of a point and their gradients (terrain::UvMap).
+struct UvMap {
+  float u;
+  float v;
+  vec2 du;
+  vec2 dv;
+};
+
+float hf_clamp01(float x) { return x > 0.0 ? (x < 1.0 ? x : 1.0) : 0.0; }
+
+float hf_dot(vec2 a, vec2 b) {
+  TERRAIN_PRECISE float r = a.x * b.x + a.y * b.y;
+  return r;
+}
+
+float hf_cross(vec2 a, vec2 b) {
+  TERRAIN_PRECISE float r = a.x * b.y - a.y * b.x;
+  return r;
+}
+
+UvSample hf_bilinear(uint grid, int n, int m, float u, float v) {
+  TERRAIN_PRECISE float x = hf_clamp01(u) * float(n - 1);
+  TERRAIN_PRECISE float y = hf_clamp01(v) * float(m - 1);
+  int i = min(int(x), n - 2);
+  int j = min(int(y), m - 2);
+  TERRAIN_PRECISE float fx = x - float(i);
+  TERRAIN_PRECISE float fy = y - float(j);
+  uint k00 = grid + uint(j) * uint(n) + uint(i);
+  uint k01 = k00 + uint(n);
+  float h00 = fetch_image(k00);
+  float h10 = fetch_image(k00 + 1u);
+  float h01 = fetch_image(k01);
+  float h11 = fetch_image(k01 + 1u);
+  TERRAIN_PRECISE float top = (1.0 - fx) * h00 + fx * h10;
+  TERRAIN_PRECISE float bottom = (1.0 - fx) * h01 + fx * h11;
+  TERRAIN_PRECISE float value = (1.0 - fy) * top + fy * bottom;
+  UvSample s = UvSample(value, 0.0, 0.0);
+  if (u >= 0.0 && u <= 1.0) {
+    TERRAIN_PRECISE float du = float(n - 1) * ((1.0 - fy) * (h10 - h00) + fy * (h11 - h01));
+    s.du = du;
+  }
+  if (v >= 0.0 && v <= 1.0) {
+    TERRAIN_PRECISE float dv = float(m - 1) * (bottom - top);
+    s.dv = dv;
+  }
+  return s;
+}
+
+// The Wyvill-type ramp w(t) = 1 − (1 − t²)³ on [0, 1] and its slope (heightfield.cpp ramp()).
+vec2 hf_ramp(float t) {
+  if (!(t > 0.0)) return vec2(0.0);
+  if (t >= 1.0) return vec2(1.0, 0.0);
+  TERRAIN_PRECISE float q = 1.0 - t * t;
+  TERRAIN_PRECISE float value = 1.0 - q * q * q;
+  TERRAIN_PRECISE float slope = 6.0 * t * q * q;
+  return vec2(value, slope);
+}
+
+vec2 hf_border_ramp(float x, float margin) {
+  bool low = x < 0.5;
+  TERRAIN_PRECISE float mirrored = 1.0 - x;
+  TERRAIN_PRECISE float s = (low ? x : mirrored) / margin;
+  vec2 r = hf_ramp(s);
+  TERRAIN_PRECISE float slope = (low ? r.y : -r.y) / margin;
+  return vec2(r.x, slope);
+}
+
+UvSample heightfield_height(uint base, float u, float v) {
+  int n = int(fetch_pool(base));
+  int m = int(fetch_pool(base + 1u));
+  float offset = fetch_pool(base + 2u);
+  float scale = fetch_pool(base + 3u);
+  UvSample s = hf_bilinear(base + 8u, n, m, u, v);
+  TERRAIN_PRECISE float value = offset + scale * s.value;
+  TERRAIN_PRECISE float du = scale * s.du;
+  TERRAIN_PRECISE float dv = scale * s.dv;
+  return UvSample(value, du, dv);
+}
+
+UvSample heightfield_weight(uint base, float u, float v) {
+  int n = int(fetch_pool(base));
+  int m = int(fetch_pool(base + 1u));
+  vec2 bu = hf_border_ramp(u, fetch_pool(base + 4u));
+  vec2 bv = hf_border_ramp(v, fetch_pool(base + 5u));
+  TERRAIN_PRECISE float bvalue = bu.x * bv.x;
+  TERRAIN_PRECISE float bdu = bu.y * bv.x;
+  TERRAIN_PRECISE float bdv = bu.x * bv.y;
+  if (!(fetch_pool(base + 6u) > 0.5)) return UvSample(bvalue, bdu, bdv);
+  uint grid = base + 8u + uint(n) * uint(m);
+  UvSample omega = hf_bilinear(grid, n, m, u, v);
+  vec2 a = hf_ramp(omega.value);
+  TERRAIN_PRECISE float value = a.x * bvalue;
+  TERRAIN_PRECISE float du = a.x * bdu + bvalue * a.y * omega.du;
+  TERRAIN_PRECISE float dv = a.x * bdv + bvalue * a.y * omega.dv;
+  return UvSample(value, du, dv);
+}
+
+// terrain::quad_inverse: (u, v) of p inside the quad (closed-form root, two Newton steps), or of
+// the nearest boundary point outside.
+UvMap quad_inverse(uint base, vec2 p) {
+  vec2 corner[4];
+  for (int k = 0; k < 4; ++k) corner[k] = pool_vec2(base + 2u * uint(k));
+  float sigma = fetch_pool(base + 8u);
+  bool inside = true;
+  for (int k = 0; k < 4; ++k) {
+    TERRAIN_PRECISE vec2 edge = corner[(k + 1) & 3] - corner[k];
+    TERRAIN_PRECISE vec2 rel = p - corner[k];
+    TERRAIN_PRECISE float side = sigma * hf_cross(edge, rel);
+    if (side < 0.0) inside = false;
+  }
+  UvMap map = UvMap(0.0, 0.0, vec2(0.0), vec2(0.0));
+  if (inside) {
+    vec2 a = corner[0];
+    TERRAIN_PRECISE vec2 e = corner[1] - a;
+    TERRAIN_PRECISE vec2 f = corner[3] - a;
+    TERRAIN_PRECISE vec2 g = (corner[2] - corner[3]) - e;
+    TERRAIN_PRECISE vec2 h = p - a;
+    TERRAIN_PRECISE float k2 = hf_cross(g, f);
+    TERRAIN_PRECISE float k1 = hf_cross(e, f) + hf_cross(h, g);
+    TERRAIN_PRECISE float k0 = hf_cross(h, e);
+    TERRAIN_PRECISE float disc = k1 * k1 - 4.0 * k0 * k2;
+    TERRAIN_PRECISE float root = sqrt(max(disc, 0.0));
+    TERRAIN_PRECISE float v = 0.0;
+    TERRAIN_PRECISE float sk1 = sigma * k1;
+    if (sk1 > 0.0) {
+      v = 2.0 * k0 / (-k1 - sigma * root);
+    } else if (k2 != 0.0) {
+      v = (-k1 + sigma * root) / (2.0 * k2);
+    }
+    v = hf_clamp01(v);
+    TERRAIN_PRECISE vec2 ev = e + g * v;
+    TERRAIN_PRECISE vec2 hv = h - f * v;
+    TERRAIN_PRECISE float u = hf_clamp01(hf_dot(hv, ev) / hf_dot(ev, ev));
+    TERRAIN_PRECISE vec2 fu = f + g * u;
+    for (int iteration = 0; iteration < 2; ++iteration) {
+      TERRAIN_PRECISE vec2 residual = (e * u + fu * v) - h;
+      TERRAIN_PRECISE float inv_det = 1.0 / hf_cross(ev, fu);
+      TERRAIN_PRECISE float nu = u - hf_cross(residual, fu) * inv_det;
+      TERRAIN_PRECISE float nv = v - hf_cross(ev, residual) * inv_det;
+      u = hf_clamp01(nu);
+      v = hf_clamp01(nv);
+      ev = e + g * v;
+      fu = f + g * u;
+    }
+    TERRAIN_PRECISE float inv = 1.0 / hf_cross(ev, fu);
+    map.u = u;
+    map.v = v;
+    TERRAIN_PRECISE vec2 du = vec2(fu.y, -fu.x) * inv;
+    TERRAIN_PRECISE vec2 dv = vec2(-ev.y, ev.x) * inv;
+    map.du = du;
+    map.dv = dv;
+    return map;
+  }
+  float best = uintBitsToFloat(0x7f800000u);
+  for (int k = 0; k < 4; ++k) {
+    vec2 start = corner[k];
+    TERRAIN_PRECISE vec2 edge = corner[(k + 1) & 3] - start;
+    TERRAIN_PRECISE float inv_len2 = 1.0 / hf_dot(edge, edge);
+    TERRAIN_PRECISE vec2 rel = p - start;
+    TERRAIN_PRECISE float t_raw = hf_dot(rel, edge) * inv_len2;
+    float t = hf_clamp01(t_raw);
+    TERRAIN_PRECISE vec2 foot = start + edge * t;
+    TERRAIN_PRECISE vec2 off = p - foot;
+    float dist2 = hf_dot(off, off);
+    if (dist2 < best) {
+      best = dist2;
+      TERRAIN_PRECISE vec2 grad = (t_raw > 0.0 && t_raw < 1.0) ? edge * inv_len2 : vec2(0.0);
+      TERRAIN_PRECISE float rest = 1.0 - t;
+      map.u = k == 0 ? t : (k == 1 ? 1.0 : (k == 2 ? rest : 0.0));
+      map.v = k == 0 ? 0.0 : (k == 1 ? t : (k == 2 ? 1.0 : rest));
+      map.du = k == 0 ? grad : (k == 2 ? -grad : vec2(0.0));
+      map.dv = k == 1 ? grad : (k == 3 ? -grad : vec2(0.0));
+    }
+  }
+  return map;
+}
+
+Field image_leaf(uint at, vec2 p) {
+  uint mapping = at + uint(fetch_pool(at + 8u));
+  uint field = at + uint(fetch_pool(at + 9u));
+  bool along_curve = fetch_pool(at + 10u) != 0.0;
+  UvMap m;
+  if (along_curve) {
+    // u along the curve, v across it: row 0 (v = 0) on the left of the direction of travel.
+    float width = fetch_pool(at + 11u);
+    float len = fetch_pool(at + 12u);
+    TERRAIN_PRECISE float inv_width = 1.0 / width;
+    TERRAIN_PRECISE float inv_length = len > 0.0 ? 1.0 / len : 0.0;
+    PolylineHit q = polyline_eval(mapping, p, uintBitsToFloat(0x7f800000u));
+    TERRAIN_PRECISE float u = q.s * inv_length;
+    TERRAIN_PRECISE float v = 0.5 - q.signed_distance * inv_width;
+    TERRAIN_PRECISE vec2 du = q.grad_s * inv_length;
+    TERRAIN_PRECISE vec2 dv = q.grad_d * -inv_width;
+    m = UvMap(u, v, du, dv);
+  } else {
+    m = quad_inverse(mapping, p);
+  }
+  UvSample h = heightfield_height(field, m.u, m.v);
+  UvSample w = heightfield_weight(field, m.u, m.v);
+  TERRAIN_PRECISE vec2 gh = m.du * h.du + m.dv * h.dv;
+  TERRAIN_PRECISE vec2 gw = m.du * w.du + m.dv * w.dv;
+  return Field(h.value, w.value, gh.x, gh.y, gw.x, gw.y);
 }
 
 // ---------------------------------------------------------------------------------------------

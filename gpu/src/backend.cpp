@@ -15,6 +15,13 @@ terrain::Status GpuPointsBackend::evaluate(const terrain::Program& program,
   return evaluator_->evaluate(program, x, y, spacing, f, fx, fy);
 }
 
+terrain::Result<terrain::Picture> GpuPointsBackend::render(const terrain::Program& program,
+                                                           const terrain::Box2& area,
+                                                           const terrain::Camera& camera,
+                                                           const terrain::RenderOptions& options) {
+  return evaluator_->render(program, area, camera, options);
+}
+
 std::vector<EglDeviceInfo> list_egl_devices() {
   std::vector<EglDeviceInfo> devices;
   const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);

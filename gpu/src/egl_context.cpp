@@ -286,4 +286,24 @@ terrain::Result<unsigned> EglContext::compile_compute(std::string_view source) {
   return static_cast<unsigned>(program);
 }
 
+terrain::Status EglContext::check_fragment_shader(std::string_view source) {
+  const GLuint shader = glCreateShader(GL_FRAGMENT_SHADER);
+  if (shader == 0) return Error{"glCreateShader(GL_FRAGMENT_SHADER) failed", ""};
+  const char* text = source.data();
+  const auto length = static_cast<GLint>(source.size());
+  glShaderSource(shader, 1, &text, &length);
+  glCompileShader(shader);
+  GLint ok = GL_FALSE;
+  glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+  GLint size = 0;
+  glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &size);
+  std::string log(static_cast<std::size_t>(std::max(size, 1)), '\0');
+  GLsizei written = 0;
+  glGetShaderInfoLog(shader, size, &written, log.data());
+  log.resize(static_cast<std::size_t>(written));
+  glDeleteShader(shader);
+  if (ok != GL_TRUE) return Error{"fragment shader compilation failed: " + log, ""};
+  return terrain::Ok{};
+}
+
 }  // namespace gpu

@@ -13,6 +13,7 @@
 
 #include "glsl_sources.hpp"
 #include "terrain/node.hpp"
+#include "terrain/sphere_trace.hpp"
 
 namespace gpu {
 namespace {
@@ -53,7 +54,7 @@ terrain::Status gl_check(const char* what) {
 bool shader_has(Op op, std::uint16_t type) {
   switch (op) {
     case Op::leaf:
-      return type == 1 || type == 2 || type == 3;  // disc, curve, contour
+      return type >= 1 && type <= 4;  // disc, curve, contour, image
     case Op::combine:
       return type == 17 || type == 18 || type == 19;  // replace, add, lod
     case Op::warp_begin:
@@ -97,6 +98,40 @@ std::uint64_t fingerprint(const terrain::Program& p) {
   return h;
 }
 
+// An upper estimate of the loop iterations one evaluation of the program runs in the shader:
+// one per instruction, plus each kernel's own loops (fractal octaves, polyline chunks and
+// segments, profile searches). llvmpipe ends every loop of an invocation once 65 535 iterations
+// have run in all (LP_MAX_TGSI_LOOP_ITERATIONS, shared by all loops of a shader), silently: work
+// is split or refused so that no invocation comes near that.
+std::size_t loop_iterations_per_evaluation(const terrain::Program& p) {
+  auto pool_at = [&p](std::size_t i) {
+    return i < p.pool.size() && std::isfinite(p.pool[i]) && p.pool[i] > 0.0f
+               ? static_cast<std::size_t>(p.pool[i])
+               : std::size_t{0};
+  };
+  auto polyline = [&](std::size_t at) { return pool_at(at) + pool_at(at + 1) + 8; };
+  constexpr std::size_t kOctaves = 25, kSearch = 16;
+  std::size_t n = 0;
+  for (const terrain::Instruction& ins : p.code) {
+    n += 1;
+    if (ins.op == Op::leaf && ins.type == 1) n += kOctaves;
+    if (ins.op == Op::leaf && ins.type == 2) {
+      n += polyline(ins.params + pool_at(ins.params + 3)) + 3 * kSearch + pool_at(ins.params + 2);
+    }
+    if (ins.op == Op::leaf && ins.type == 3) n += 2 * kSearch;
+    if (ins.op == Op::leaf && ins.type == 4)
+      n += 4 + polyline(ins.params + pool_at(ins.params + 8));
+    if (ins.op == Op::warp_begin && ins.type == 33) n += 2 * kOctaves;
+  }
+  return n;
+}
+
+// Loop iterations llvmpipe allows one invocation, with room for the tracer's own loops.
+constexpr std::size_t kLoopBudget = 60000;
+// trace_bound's cell loops (at most a quarter of 64 × 64 cells, plus rows and levels) and the
+// step loop itself.
+constexpr std::size_t kTraceStepLoops = 64 * 64 / 4 + 64 + 8;
+
 }  // namespace
 
 std::vector<float> prepare_pool(const terrain::Program& program) {
@@ -119,7 +154,23 @@ namespace {
 
 struct Shader {
   GLuint program = 0;
-  GLint program_size = -1, first = -1, count = -1, grid_width = -1, spacing = -1;
+  GLint program_size = -1, first = -1, count = -1, grid_width = -1, grid_samples = -1, spacing = -1;
+};
+
+// The tracer's uniforms (compute_trace_main.glsl).
+struct TraceShader {
+  GLuint program = 0;
+  GLint program_size = -1, first = -1, count = -1, phase = -1, budget = -1, eye = -1, forward = -1,
+        right = -1, up = -1, tan_half = -1, aspect = -1, size = -1, area = -1, elevation = -1,
+        epsilon = -1, max_steps = -1, initial_step = -1, lod_per_metre = -1, t_max = -1,
+        accelerated = -1, water_level = -1, span = -1, sun = -1;
+};
+
+// A LipschitzGrid uploaded for one (program, area): built on the CPU once, reused by later
+// pictures of the same scene and area.
+struct UploadedBounds {
+  std::string key;
+  GLuint buffer = 0;
 };
 
 struct Uploaded {
@@ -148,45 +199,74 @@ struct GpuEvaluator::State {
   int glsl_version = 310;
   std::size_t capacity = 8;
   std::map<std::pair<int, int>, Shader> shaders;
-  std::list<Uploaded> programs;  // most recently used first
+  std::map<std::pair<int, int>, TraceShader> trace_shaders;
+  std::list<Uploaded> programs;      // most recently used first
+  std::list<UploadedBounds> bounds;  // most recently used first
   GLuint positions = 0;
   std::size_t positions_bytes = 0;
   GLuint results = 0;
   std::size_t results_bytes = 0;
   GLuint max_groups = 65535;
+  std::size_t uploads = 0;    // programs uploaded so far (cache misses)
+  bool loop_limited = false;  // llvmpipe/softpipe: see loop_iterations_per_evaluation
+  GLuint trace_states = 0;
+  std::size_t trace_states_bytes = 0;
+  GLuint trace_active = 0;
 
   ~State() {
     for (auto& [key, s] : shaders) glDeleteProgram(s.program);
+    for (auto& [key, s] : trace_shaders) glDeleteProgram(s.program);
+    for (UploadedBounds& b : bounds) glDeleteBuffers(1, &b.buffer);
     for (Uploaded& u : programs) {
       glDeleteBuffers(1, &u.code);
       glDeleteBuffers(1, &u.pool);
     }
     glDeleteBuffers(1, &positions);
     glDeleteBuffers(1, &results);
+    glDeleteBuffers(1, &trace_states);
+    glDeleteBuffers(1, &trace_active);
   }
 };
 
 struct GpuEvaluator::Run {
-  std::span<const float> positions;  // (x, y) pairs, or columns then rows
+  std::span<const float> positions;  // (x, y) pairs, or per grid its columns then its rows
   std::size_t count = 0;
-  int grid_width = 0;
-  float spacing = 0.0f;
+  int grid_width = 0;            // 0: (x, y) pairs
+  std::size_t grid_samples = 0;  // samples per grid; the grids' spacings follow their tables
+  float spacing = 0.0f;          // pairs only
   float* f = nullptr;
   float* fx = nullptr;
   float* fy = nullptr;
 };
 
 std::string_view shared_glsl() {
-  static const std::string text = std::string(glsl::noise()) + "\n" + std::string(glsl::nodes()) +
+  static const std::string text = std::string(glsl::portable_math()) + "\n" +
+                                  std::string(glsl::noise()) + "\n" + std::string(glsl::nodes()) +
                                   "\n" + std::string(glsl::interpreter());
   return text;
 }
 
-std::string compute_shader_source(int max_fields, int max_frames) {
+std::string_view trace_glsl() {
+  return glsl::trace();
+}
+
+namespace {
+
+std::string shader_header(int max_fields, int max_frames) {
   return "#version 310 es\n#define TERRAIN_MAX_FIELDS " + std::to_string(max_fields) +
          "\n#define TERRAIN_MAX_FRAMES " + std::to_string(max_frames) + "\n" +
-         std::string(glsl::compute_prelude()) + "\n" + std::string(shared_glsl()) + "\n" +
-         std::string(glsl::compute_main());
+         std::string(glsl::compute_prelude()) + "\n" + std::string(shared_glsl()) + "\n";
+}
+
+}  // namespace
+
+std::string compute_shader_source(int max_fields, int max_frames) {
+  return shader_header(max_fields, max_frames) + std::string(glsl::compute_main());
+}
+
+std::string trace_shader_source(int max_fields, int max_frames) {
+  return shader_header(max_fields, max_frames) + std::string(glsl::trace()) + "\n" +
+         std::string(glsl::compute_trace_main());
 }
 
 terrain::Result<std::unique_ptr<GpuEvaluator>> GpuEvaluator::create(const GpuOptions& options) {
@@ -209,6 +289,11 @@ terrain::Result<std::unique_ptr<GpuEvaluator>> GpuEvaluator::create(const GpuOpt
   if (groups > 0) out->state_->max_groups = static_cast<GLuint>(std::min(groups, 65535));
   glGenBuffers(1, &out->state_->positions);
   glGenBuffers(1, &out->state_->results);
+  glGenBuffers(1, &out->state_->trace_states);
+  out->state_->trace_active = make_buffer(nullptr, 0);
+  const std::string& renderer = out->context_->renderer();
+  out->state_->loop_limited = renderer.find("llvmpipe") != std::string::npos ||
+                              renderer.find("softpipe") != std::string::npos;
   if (terrain::Status s = gl_check("setting up the evaluator"); !s) return s.error();
   return out;
 }
@@ -263,33 +348,105 @@ terrain::Status GpuEvaluator::evaluate(const terrain::Program& program, std::spa
 
 terrain::Result<terrain::GridResult> GpuEvaluator::evaluate_grid(const terrain::Program& program,
                                                                  const terrain::GridSpec& grid) {
-  if (grid.width <= 0 || grid.height <= 0) return Error{"the grid is empty", ""};
-  terrain::GridResult out;
-  out.width = grid.width;
-  out.height = grid.height;
-  const auto w = static_cast<std::size_t>(grid.width);
-  const auto h = static_cast<std::size_t>(grid.height);
-  std::vector<float> table(w + h);
-  // Rounded exactly as terrain::evaluate_grid does: double, then float.
-  for (int i = 0; i < grid.width; ++i) {
-    table[static_cast<std::size_t>(i)] = static_cast<float>(grid.origin_x + grid.step * i);
+  terrain::Result<std::vector<terrain::GridResult>> one =
+      evaluate_grids(program, std::span<const terrain::GridSpec>(&grid, 1));
+  if (!one) return one.error();
+  return std::move(one->front());
+}
+
+terrain::Result<std::vector<terrain::GridResult>> GpuEvaluator::evaluate_grids(
+    const terrain::Program& program, std::span<const terrain::GridSpec> grids) {
+  if (grids.empty()) return std::vector<terrain::GridResult>{};
+  const int width = grids.front().width, height = grids.front().height;
+  if (width <= 0 || height <= 0) return Error{"the grid is empty", ""};
+  for (const terrain::GridSpec& g : grids) {
+    if (g.width != width || g.height != height) {
+      return Error{"grids batched in one dispatch must share one size", ""};
+    }
   }
-  for (int j = 0; j < grid.height; ++j) {
-    table[w + static_cast<std::size_t>(j)] = static_cast<float>(grid.origin_y + grid.step * j);
+  const auto w = static_cast<std::size_t>(width);
+  const auto h = static_cast<std::size_t>(height);
+  const std::size_t n = grids.size();
+  // Per grid its column table and its row table, then one spacing per grid.
+  std::vector<float> tables((w + h) * n + n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const terrain::GridSpec& g = grids[k];
+    float* table = tables.data() + k * (w + h);
+    // Rounded exactly as terrain::evaluate_grid does: double, then float.
+    for (int i = 0; i < width; ++i) {
+      table[static_cast<std::size_t>(i)] = static_cast<float>(g.origin_x + g.step * i);
+    }
+    for (int j = 0; j < height; ++j) {
+      table[w + static_cast<std::size_t>(j)] = static_cast<float>(g.origin_y + g.step * j);
+    }
+    tables[(w + h) * n + k] = g.lod_spacing < 0.0f ? static_cast<float>(g.step) : g.lod_spacing;
   }
-  out.elevation.resize(w * h);
-  out.gradient_x.resize(w * h);
-  out.gradient_y.resize(w * h);
+  std::vector<float> f(w * h * n), fx(w * h * n), fy(w * h * n);
   Run request;
-  request.positions = table;
-  request.count = w * h;
-  request.grid_width = grid.width;
-  request.spacing = grid.lod_spacing < 0.0f ? static_cast<float>(grid.step) : grid.lod_spacing;
-  request.f = out.elevation.data();
-  request.fx = out.gradient_x.data();
-  request.fy = out.gradient_y.data();
+  request.positions = tables;
+  request.count = w * h * n;
+  request.grid_width = width;
+  request.grid_samples = w * h;
+  request.f = f.data();
+  request.fx = fx.data();
+  request.fy = fy.data();
   if (terrain::Status s = run(program, request); !s) return s.error();
+  std::vector<terrain::GridResult> out(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    terrain::GridResult& r = out[k];
+    r.width = width;
+    r.height = height;
+    const auto first = static_cast<std::ptrdiff_t>(k * w * h);
+    const auto last = static_cast<std::ptrdiff_t>((k + 1) * w * h);
+    r.elevation.assign(f.begin() + first, f.begin() + last);
+    r.gradient_x.assign(fx.begin() + first, fx.begin() + last);
+    r.gradient_y.assign(fy.begin() + first, fy.begin() + last);
+  }
   return out;
+}
+
+terrain::Result<const void*> GpuEvaluator::upload(const terrain::Program& program) {
+  State& st = *state_;
+  // The program's buffers, uploaded once per program version (the key changes with any byte).
+  const std::string key = program.scene_hash + "/" + std::to_string(fingerprint(program));
+  auto it = std::find_if(st.programs.begin(), st.programs.end(),
+                         [&](const Uploaded& u) { return u.key == key; });
+  if (it != st.programs.end()) {
+    st.programs.splice(st.programs.begin(), st.programs, it);
+    return static_cast<const void*>(&st.programs.front());
+  }
+  Uploaded u;
+  u.key = key;
+  u.code = make_buffer(program.code.data(), program.code.size() * sizeof(terrain::Instruction));
+  const std::vector<float> pool = prepare_pool(program);
+  u.pool = make_buffer(pool.data(), pool.size() * sizeof(float));
+  u.stacks = {round_up(program.max_field_depth + 1, 4), round_up(program.max_frame_depth + 1, 2)};
+  if (terrain::Status s = gl_check("uploading the program"); !s) {
+    glDeleteBuffers(1, &u.code);
+    glDeleteBuffers(1, &u.pool);
+    return s.error();
+  }
+  ++st.uploads;
+  st.programs.push_front(std::move(u));
+  while (st.programs.size() > st.capacity) {
+    glDeleteBuffers(1, &st.programs.back().code);
+    glDeleteBuffers(1, &st.programs.back().pool);
+    st.programs.pop_back();
+  }
+  return static_cast<const void*>(&st.programs.front());
+}
+
+terrain::Result<unsigned> GpuEvaluator::compile(const std::string& source) {
+  std::string text = source;
+  if (state_->glsl_version == 320) {
+    text.replace(0, std::strlen("#version 310 es"), "#version 320 es");
+  }
+  return context_->compile_compute(text);
+}
+
+std::size_t GpuEvaluator::program_uploads() const {
+  EglContext::Scope scope(*context_);
+  return state_->uploads;
 }
 
 terrain::Status GpuEvaluator::run(const terrain::Program& program, const Run& request) {
@@ -299,43 +456,24 @@ terrain::Status GpuEvaluator::run(const terrain::Program& program, const Run& re
   EglContext::Scope scope(*context_);
   if (!scope.ok()) return scope.status();
   State& st = *state_;
+  if (st.loop_limited && loop_iterations_per_evaluation(program) > kLoopBudget) {
+    return Error{
+        "the program is too large for this device's shader loop limit (llvmpipe stops "
+        "loops after 65535 iterations); evaluate it on the CPU",
+        ""};
+  }
   // A stale error from elsewhere must not be blamed on this call.
   static_cast<void>(gl_check("before evaluation"));
 
-  // The program's buffers, uploaded once per program version.
-  const std::string key = program.scene_hash + "/" + std::to_string(fingerprint(program));
-  auto it = std::find_if(st.programs.begin(), st.programs.end(),
-                         [&](const Uploaded& u) { return u.key == key; });
-  if (it != st.programs.end()) {
-    st.programs.splice(st.programs.begin(), st.programs, it);
-  } else {
-    Uploaded u;
-    u.key = key;
-    u.code = make_buffer(program.code.data(), program.code.size() * sizeof(terrain::Instruction));
-    const std::vector<float> pool = prepare_pool(program);
-    u.pool = make_buffer(pool.data(), pool.size() * sizeof(float));
-    u.stacks = {round_up(program.max_field_depth + 1, 4), round_up(program.max_frame_depth + 1, 2)};
-    if (terrain::Status s = gl_check("uploading the program"); !s) {
-      glDeleteBuffers(1, &u.code);
-      glDeleteBuffers(1, &u.pool);
-      return s;
-    }
-    st.programs.push_front(std::move(u));
-    while (st.programs.size() > st.capacity) {
-      glDeleteBuffers(1, &st.programs.back().code);
-      glDeleteBuffers(1, &st.programs.back().pool);
-      st.programs.pop_back();
-    }
-  }
-  const Uploaded& uploaded = st.programs.front();
+  terrain::Result<const void*> uploaded_at = upload(program);
+  if (!uploaded_at) return uploaded_at.error();
+  const Uploaded& uploaded = *static_cast<const Uploaded*>(*uploaded_at);
 
   // The shader for these stack sizes, compiled once.
   auto found = st.shaders.find(uploaded.stacks);
   if (found == st.shaders.end()) {
-    std::string source = compute_shader_source(uploaded.stacks.first, uploaded.stacks.second);
-    if (st.glsl_version == 320)
-      source.replace(0, std::strlen("#version 310 es"), "#version 320 es");
-    terrain::Result<unsigned> compiled = context_->compile_compute(source);
+    terrain::Result<unsigned> compiled =
+        compile(compute_shader_source(uploaded.stacks.first, uploaded.stacks.second));
     if (!compiled) return compiled.error();
     Shader s;
     s.program = compiled.value();
@@ -343,6 +481,7 @@ terrain::Status GpuEvaluator::run(const terrain::Program& program, const Run& re
     s.first = glGetUniformLocation(s.program, "u_first");
     s.count = glGetUniformLocation(s.program, "u_count");
     s.grid_width = glGetUniformLocation(s.program, "u_grid_width");
+    s.grid_samples = glGetUniformLocation(s.program, "u_grid_samples");
     s.spacing = glGetUniformLocation(s.program, "u_spacing");
     found = st.shaders.emplace(uploaded.stacks, s).first;
   }
@@ -374,6 +513,7 @@ terrain::Status GpuEvaluator::run(const terrain::Program& program, const Run& re
   glUniform1ui(shader.program_size, static_cast<GLuint>(program.code.size()));
   glUniform1ui(shader.count, static_cast<GLuint>(request.count));
   glUniform1ui(shader.grid_width, static_cast<GLuint>(request.grid_width));
+  glUniform1ui(shader.grid_samples, static_cast<GLuint>(request.grid_samples));
   glUniform1f(shader.spacing, request.spacing);
   // Large requests go in several dispatches: the group count per dispatch is limited.
   const std::size_t per_dispatch = static_cast<std::size_t>(st.max_groups) * kWorkgroupSize;
@@ -399,6 +539,261 @@ terrain::Status GpuEvaluator::run(const terrain::Program& program, const Run& re
   }
   glUnmapBuffer(GL_SHADER_STORAGE_BUFFER);
   return gl_check("reading the results back");
+}
+
+terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& program,
+                                                       const terrain::Box2& area,
+                                                       const terrain::Camera& camera,
+                                                       const terrain::RenderOptions& options) {
+  if (terrain::Status s = supports(program); !s) return s.error();
+  if (camera.width <= 0 || camera.height <= 0) return Error{"the picture is empty", ""};
+  const std::size_t pixels =
+      static_cast<std::size_t>(camera.width) * static_cast<std::size_t>(camera.height);
+  if (pixels > 0xffffffffull / 2) return Error{"too many pixels for one picture", ""};
+  const std::size_t per_step = loop_iterations_per_evaluation(program) + kTraceStepLoops;
+  // Refused before any work (the bounds grid costs CPU time); loop_limited never changes. The
+  // finishing phase evaluates once more, and the first step also clips the ray.
+  if (state_->loop_limited && per_step + 64 > kLoopBudget) {
+    return Error{
+        "the program is too large for this device's shader loop limit (llvmpipe stops "
+        "loops after 65535 iterations); render it on the CPU",
+        ""};
+  }
+
+  // Everything terrain::render derives before tracing, derived the same way.
+  const terrain::TraceDomain domain = terrain::trace_domain(program, area);
+  const float span = std::max(area.size().x, area.size().y);
+  terrain::TraceOptions trace = options.trace;
+  if (trace.lod_per_metre == 0.0f) trace.lod_per_metre = terrain::pixel_footprint(camera);
+  trace.t_max = std::min(trace.t_max, 4.0f * span + 1e4f);
+  const terrain::Camera::Basis basis = camera.basis();
+  const terrain::Vec3 sun = terrain::sun_direction();
+
+  // The bounds grid: the caller's, or the one terrain::render builds (cached per program and
+  // area, since building it walks the program 20 480 times on the CPU).
+  std::vector<float> packed_bounds;
+  std::string bounds_key;
+  if (trace.bounds != nullptr) {
+    packed_bounds = trace.bounds->pack();
+  } else {
+    bounds_key = program.scene_hash + "/" + std::to_string(fingerprint(program));
+    for (float v : {area.lo.x, area.lo.y, area.hi.x, area.hi.y}) {
+      std::uint32_t bits = 0;
+      std::memcpy(&bits, &v, sizeof bits);
+      bounds_key += "/" + std::to_string(bits);
+    }
+  }
+  bool cached_bounds = false;
+  {
+    EglContext::Scope scope(*context_);
+    if (!scope.ok()) return scope.status().error();
+    cached_bounds = !bounds_key.empty() &&
+                    std::any_of(state_->bounds.begin(), state_->bounds.end(),
+                                [&](const UploadedBounds& b) { return b.key == bounds_key; });
+  }
+  if (!cached_bounds && packed_bounds.empty()) {
+    terrain::Evaluator evaluator(program);
+    packed_bounds = terrain::LipschitzGrid(evaluator, area).pack();
+  }
+
+  EglContext::Scope scope(*context_);
+  if (!scope.ok()) return scope.status().error();
+  State& st = *state_;
+  static_cast<void>(gl_check("before tracing"));
+  // Steps per pixel and dispatch: all of them at once, or on llvmpipe as many as stay within its
+  // loop limit (the trace resumes in the next dispatch; the result is the same).
+  int budget = std::max(trace.max_steps, 1);
+  if (st.loop_limited) budget = std::min(budget, static_cast<int>(kLoopBudget / per_step));
+  terrain::Result<const void*> uploaded_at = upload(program);
+  if (!uploaded_at) return uploaded_at.error();
+  const Uploaded& uploaded = *static_cast<const Uploaded*>(*uploaded_at);
+
+  // The bounds buffer: from the cache, or uploaded now (and cached when it is render's own).
+  GLuint bounds_buffer = 0;
+  GLuint temporary_bounds = 0;
+  auto cached = std::find_if(st.bounds.begin(), st.bounds.end(), [&](const UploadedBounds& b) {
+    return !bounds_key.empty() && b.key == bounds_key;
+  });
+  if (cached != st.bounds.end()) {
+    st.bounds.splice(st.bounds.begin(), st.bounds, cached);
+    bounds_buffer = st.bounds.front().buffer;
+  } else {
+    if (packed_bounds.empty()) {
+      // Another thread evicted it between the two locks: rebuild.
+      terrain::Evaluator evaluator(program);
+      packed_bounds = terrain::LipschitzGrid(evaluator, area).pack();
+    }
+    const GLuint buffer = make_buffer(packed_bounds.data(), packed_bounds.size() * sizeof(float));
+    if (terrain::Status s = gl_check("uploading the Lipschitz grid"); !s) {
+      glDeleteBuffers(1, &buffer);
+      return s.error();
+    }
+    if (bounds_key.empty()) {
+      temporary_bounds = buffer;
+    } else {
+      st.bounds.push_front({bounds_key, buffer});
+      while (st.bounds.size() > st.capacity) {
+        glDeleteBuffers(1, &st.bounds.back().buffer);
+        st.bounds.pop_back();
+      }
+    }
+    bounds_buffer = buffer;
+  }
+  // Deletes a caller's grid when this call ends, whatever the path out.
+  struct Release {
+    GLuint buffer;
+    ~Release() {
+      if (buffer != 0) glDeleteBuffers(1, &buffer);
+    }
+  } release{temporary_bounds};
+
+  auto found = st.trace_shaders.find(uploaded.stacks);
+  if (found == st.trace_shaders.end()) {
+    terrain::Result<unsigned> compiled =
+        compile(trace_shader_source(uploaded.stacks.first, uploaded.stacks.second));
+    if (!compiled) return compiled.error();
+    TraceShader s;
+    s.program = compiled.value();
+    auto at = [&](const char* name) { return glGetUniformLocation(s.program, name); };
+    s.program_size = at("u_program_size");
+    s.first = at("u_first");
+    s.count = at("u_count");
+    s.phase = at("u_phase");
+    s.budget = at("u_budget");
+    s.eye = at("u_eye");
+    s.forward = at("u_forward");
+    s.right = at("u_right");
+    s.up = at("u_up");
+    s.tan_half = at("u_tan_half");
+    s.aspect = at("u_aspect");
+    s.size = at("u_size");
+    s.area = at("u_area");
+    s.elevation = at("u_elevation");
+    s.epsilon = at("u_epsilon");
+    s.max_steps = at("u_max_steps");
+    s.initial_step = at("u_initial_step");
+    s.lod_per_metre = at("u_lod_per_metre");
+    s.t_max = at("u_t_max");
+    s.accelerated = at("u_accelerated");
+    s.water_level = at("u_water_level");
+    s.span = at("u_span");
+    s.sun = at("u_sun");
+    found = st.trace_shaders.emplace(uploaded.stacks, s).first;
+  }
+  const TraceShader& shader = found->second;
+
+  const std::size_t out_bytes = pixels * 4 * sizeof(std::uint32_t);
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, st.results);
+  if (out_bytes > st.results_bytes) {
+    glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(out_bytes), nullptr,
+                 GL_DYNAMIC_READ);
+    st.results_bytes = out_bytes;
+  }
+  const std::size_t state_bytes = pixels * 8 * sizeof(std::uint32_t);
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, st.trace_states);
+  if (state_bytes > st.trace_states_bytes) {
+    glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(state_bytes), nullptr,
+                 GL_DYNAMIC_COPY);
+    st.trace_states_bytes = state_bytes;
+  }
+  if (terrain::Status s = gl_check("allocating the picture"); !s) return s.error();
+
+  glUseProgram(shader.program);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, uploaded.code);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, uploaded.pool);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, st.results);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, bounds_buffer);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, st.trace_states);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, st.trace_active);
+  glUniform1ui(shader.program_size, static_cast<GLuint>(program.code.size()));
+  glUniform1ui(shader.count, static_cast<GLuint>(pixels));
+  glUniform1i(shader.budget, budget);
+  glUniform3f(shader.eye, camera.position.x, camera.position.y, camera.position.z);
+  glUniform3f(shader.forward, basis.forward.x, basis.forward.y, basis.forward.z);
+  glUniform3f(shader.right, basis.right.x, basis.right.y, basis.right.z);
+  glUniform3f(shader.up, basis.up.x, basis.up.y, basis.up.z);
+  glUniform1f(shader.tan_half, basis.tan_half);
+  glUniform1f(shader.aspect, basis.aspect);
+  glUniform2f(shader.size, static_cast<float>(camera.width), static_cast<float>(camera.height));
+  glUniform4f(shader.area, domain.area.lo.x, domain.area.lo.y, domain.area.hi.x, domain.area.hi.y);
+  glUniform2f(shader.elevation, domain.elevation.lo, domain.elevation.hi);
+  glUniform1f(shader.epsilon, trace.epsilon);
+  glUniform1i(shader.max_steps, trace.max_steps);
+  glUniform1f(shader.initial_step, trace.initial_step);
+  glUniform1f(shader.lod_per_metre, trace.lod_per_metre);
+  glUniform1f(shader.t_max, trace.t_max);
+  glUniform1i(shader.accelerated, trace.accelerated ? 1 : 0);
+  glUniform1f(shader.water_level, options.water_level);
+  glUniform1f(shader.span, span);
+  glUniform3f(shader.sun, sun.x, sun.y, sun.z);
+
+  // One phase over every pixel, in as many dispatches as the group count limit asks.
+  const std::size_t per_dispatch = static_cast<std::size_t>(st.max_groups) * kWorkgroupSize;
+  auto dispatch_all = [&](int phase) {
+    glUniform1i(shader.phase, phase);
+    for (std::size_t first = 0; first < pixels; first += per_dispatch) {
+      const std::size_t n = std::min(per_dispatch, pixels - first);
+      glUniform1ui(shader.first, static_cast<GLuint>(first));
+      glDispatchCompute(static_cast<GLuint>((n + kWorkgroupSize - 1) / kWorkgroupSize), 1, 1);
+    }
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+  };
+  // Pixels still tracing after the last dispatch; zeroes the counter for the next one.
+  auto still_running = [&]() -> terrain::Result<std::uint32_t> {
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, st.trace_active);
+    const auto* count = static_cast<const std::uint32_t*>(
+        glMapBufferRange(GL_SHADER_STORAGE_BUFFER, 0, sizeof(std::uint32_t), GL_MAP_READ_BIT));
+    if (count == nullptr) return Error{"reading the tracer's progress failed", ""};
+    const std::uint32_t running = *count;
+    glUnmapBuffer(GL_SHADER_STORAGE_BUFFER);
+    const std::uint32_t zero = 0;
+    glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof zero, &zero);
+    if (terrain::Status s = gl_check("reading the tracer's progress"); !s) return s.error();
+    return running;
+  };
+  {
+    const std::uint32_t zero = 0;
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, st.trace_active);
+    glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, sizeof zero, &zero);
+  }
+  dispatch_all(0);
+  for (;;) {
+    if (terrain::Status s = gl_check("running the tracer"); !s) return s.error();
+    terrain::Result<std::uint32_t> running = still_running();
+    if (!running) return running.error();
+    if (*running == 0) break;
+    if (options.progress) {
+      options.progress(1.0f - static_cast<float>(*running) / static_cast<float>(pixels));
+    }
+    dispatch_all(1);
+  }
+  dispatch_all(2);
+  if (terrain::Status s = gl_check("shading the picture"); !s) return s.error();
+
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, st.results);
+  const auto* mapped = static_cast<const std::uint32_t*>(glMapBufferRange(
+      GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(out_bytes), GL_MAP_READ_BIT));
+  if (mapped == nullptr) {
+    terrain::Status s = gl_check("reading the picture back");
+    return s ? Error{"glMapBufferRange returned no memory", ""} : s.error();
+  }
+  terrain::Picture picture;
+  picture.width = camera.width;
+  picture.height = camera.height;
+  picture.rgb.resize(pixels * 3);
+  picture.depth.resize(pixels);
+  for (std::size_t i = 0; i < pixels; ++i) {
+    const std::uint32_t rgba = mapped[4 * i];
+    picture.rgb[3 * i] = static_cast<std::uint8_t>(rgba & 0xffu);
+    picture.rgb[3 * i + 1] = static_cast<std::uint8_t>((rgba >> 8) & 0xffu);
+    picture.rgb[3 * i + 2] = static_cast<std::uint8_t>((rgba >> 16) & 0xffu);
+    std::memcpy(&picture.depth[i], &mapped[4 * i + 1], sizeof(float));
+    picture.total_steps += mapped[4 * i + 2];
+  }
+  glUnmapBuffer(GL_SHADER_STORAGE_BUFFER);
+  if (options.progress) options.progress(1.0f);
+  if (terrain::Status s = gl_check("reading the picture back"); !s) return s.error();
+  return picture;
 }
 
 }  // namespace gpu

@@ -1250,11 +1250,27 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
   deferred.cost = cost;
   deferred.work = [=, this]() -> Response {
     const auto start = std::chrono::steady_clock::now();
-    const terrain::Picture picture = terrain::render(*source->terrain, area, camera, options);
+    // The GPU tracer when the server has a GPU backend; the CPU when there is none or it fails
+    // (unsupported program, lost context, llvmpipe's loop limit), and the response says which.
+    terrain::Picture picture;
+    std::string produced = "cpu";
+    bool traced = false;
+    if (backend_) {
+      Result<terrain::Picture> gpu_picture =
+          backend_->render(*source->terrain, area, camera, options);
+      if (gpu_picture) {
+        picture = std::move(gpu_picture).value();
+        produced = backend_->name();
+        traced = true;
+      } else {
+        produced = "cpu (fallback: " + gpu_picture.error().message + ")";
+      }
+    }
+    if (!traced) picture = terrain::render(*source->terrain, area, camera, options);
     auto png = terrain::encode_png_rgb8(picture.width, picture.height, picture.rgb.data());
     metrics_.generation(
         "render", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-        "cpu");
+        traced ? "gpu" : (backend_ ? "cpu-fallback" : "cpu"));
     Request shadow{http::verb::get, "/", version};
     shadow.keep_alive(keep_alive);
     if (!png) {
@@ -1266,6 +1282,7 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
     r.set(http::field::cache_control,
           pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate");
     r.set(http::field::etag, product_etag(r.body()));
+    r.set("X-Terrain-Backend", produced);
     return r;
   };
   return deferred;

@@ -2,6 +2,7 @@
 // between sector profiles, and the bounds the Lipschitz derivation of docs/geometry.md §3 needs.
 #include "terrain/contour.hpp"
 #include "geometry_util.hpp"
+#include "terrain/portable_math.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -216,8 +217,9 @@ ContourSample contour_eval(const float* packed, Vec2 p) {
   ContourSample out;
   const Vec2 l = p - centre;
   out.r = length(l);
-  // Angle in the contour's frame (rotation by −orientation), wrapped to [0, 2π).
-  float theta = std::atan2(-sn * l.x + cs * l.y, cs * l.x + sn * l.y);
+  // Angle in the contour's frame (rotation by −orientation), wrapped to [0, 2π). The portable
+  // atan2 (not libm's) so that the GPU kernels compute the very same angle.
+  float theta = portable_atan2(-sn * l.x + cs * l.y, cs * l.x + sn * l.y);
   if (theta < 0.0f) theta += kTwoPi;
   if (theta >= kTwoPi) theta = 0.0f;  // −tiny + 2π can round up to 2π
   out.theta = theta;

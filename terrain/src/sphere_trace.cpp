@@ -87,6 +87,19 @@ float LipschitzGrid::bound(const Box2& box, float spacing) const {
   return worst;
 }
 
+std::vector<float> LipschitzGrid::pack() const {
+  std::vector<float> out{static_cast<float>(cells_),
+                         static_cast<float>(spacings_.size()),
+                         global_,
+                         area_.lo.x,
+                         area_.lo.y,
+                         area_.hi.x,
+                         area_.hi.y};
+  out.insert(out.end(), spacings_.begin(), spacings_.end());
+  for (const std::vector<float>& level : levels_) out.insert(out.end(), level.begin(), level.end());
+  return out;
+}
+
 TraceDomain trace_domain(const Program& program, const Box2& area) {
   Interval z = program.bounds.elevation.hull(Interval::point(program.base_elevation));
   return {area, {z.lo - 1.0f, z.hi + 1.0f}};
@@ -171,21 +184,27 @@ TraceResult march_dense(Evaluator& evaluator, const TraceDomain& domain, const R
   return result;
 }
 
+Camera::Basis Camera::basis() const {
+  Basis b;
+  b.forward = normalise({target.x - position.x, target.y - position.y, target.z - position.z});
+  b.right = normalise({b.forward.y, -b.forward.x, 0.0f});
+  if (!std::isfinite(b.right.x)) b.right = {1, 0, 0};
+  b.up = {b.right.y * b.forward.z - b.right.z * b.forward.y,
+          b.right.z * b.forward.x - b.right.x * b.forward.z,
+          b.right.x * b.forward.y - b.right.y * b.forward.x};
+  b.tan_half = std::tan(vertical_fov_degrees * std::numbers::pi_v<float> / 360.0f);
+  b.aspect = static_cast<float>(width) / static_cast<float>(height);
+  return b;
+}
+
+// gpu/glsl/trace.glsl (trace_ray_direction) repeats this arithmetic operation for operation.
 Ray Camera::ray(float px, float py) const {
-  const Vec3 forward =
-      normalise({target.x - position.x, target.y - position.y, target.z - position.z});
-  Vec3 right = normalise({forward.y, -forward.x, 0.0f});
-  if (!std::isfinite(right.x)) right = {1, 0, 0};
-  const Vec3 up{right.y * forward.z - right.z * forward.y,
-                right.z * forward.x - right.x * forward.z,
-                right.x * forward.y - right.y * forward.x};
-  const float tan_half = std::tan(vertical_fov_degrees * std::numbers::pi_v<float> / 360.0f);
-  const float aspect = static_cast<float>(width) / static_cast<float>(height);
-  const float sx = (2.0f * (px / static_cast<float>(width)) - 1.0f) * tan_half * aspect;
-  const float sy = (1.0f - 2.0f * (py / static_cast<float>(height))) * tan_half;
-  return {position,
-          normalise({forward.x + sx * right.x + sy * up.x, forward.y + sx * right.y + sy * up.y,
-                     forward.z + sx * right.z + sy * up.z})};
+  const Basis b = basis();
+  const float sx = (2.0f * (px / static_cast<float>(width)) - 1.0f) * b.tan_half * b.aspect;
+  const float sy = (1.0f - 2.0f * (py / static_cast<float>(height))) * b.tan_half;
+  return {position, normalise({b.forward.x + sx * b.right.x + sy * b.up.x,
+                               b.forward.y + sx * b.right.y + sy * b.up.y,
+                               b.forward.z + sx * b.right.z + sy * b.up.z})};
 }
 
 float pixel_footprint(const Camera& camera) {
@@ -232,7 +251,7 @@ Rgb shade(const FieldSample& s, float z, const Interval& range, float water_leve
   if (height > 0.8f && slope < 0.6f)
     ground = mix(ground, {0.95f, 0.96f, 0.98f}, (height - 0.8f) * 5.0f);
   if (z < water_level) ground = {0.12f, 0.30f, 0.45f};
-  const Vec3 sun = normalise({-0.5f, -0.4f, 0.75f});
+  const Vec3 sun = sun_direction();
   const float diffuse = std::max(0.0f, n.x * sun.x + n.y * sun.y + n.z * sun.z);
   const float light = 0.30f + 0.75f * diffuse;
   return {ground.r * light, ground.g * light, ground.b * light};
@@ -243,6 +262,10 @@ std::uint8_t to_byte(float v) {
 }
 
 }  // namespace
+
+Vec3 sun_direction() {
+  return normalise({-0.5f, -0.4f, 0.75f});
+}
 
 Picture render(const Program& program, const Box2& area, const Camera& camera,
                const RenderOptions& options) {

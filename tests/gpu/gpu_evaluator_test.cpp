@@ -194,21 +194,10 @@ TEST(GpuShader, AssemblesFromTheSharedGlslFiles) {
 
 class EveryNodeTypeOnGpu : public ::testing::TestWithParam<const terrain::NodeType*> {};
 
-TEST_P(EveryNodeTypeOnGpu, MatchesTheCpuReferenceOrIsRefusedByName) {
+TEST_P(EveryNodeTypeOnGpu, MatchesTheCpuReference) {
   const terrain::NodeType& type = *GetParam();
   const terrain::Scene scene = example_scene(type);
   const terrain::Program program = compile_or_throw(scene);
-  if (type.name == "image") {
-    // Not ported yet: the backend must refuse, naming the type, rather than return wrong heights.
-    const std::vector<float> x{0.0f}, y{0.0f};
-    float f = 0.0f;
-    const terrain::Status s =
-        shared_evaluator().evaluate(program, x, y, 0.0f, &f, nullptr, nullptr);
-    ASSERT_FALSE(s.ok());
-    EXPECT_NE(s.error().message.find("'image'"), std::string::npos) << s.error().message;
-    EXPECT_FALSE(GpuEvaluator::supports(program).ok());
-    return;
-  }
   ASSERT_TRUE(GpuEvaluator::supports(program).ok())
       << GpuEvaluator::supports(program).error().message;
   expect_scene_matches(scene, program, "type " + std::string(type.name));
@@ -253,24 +242,15 @@ std::vector<std::string> example_scene_files() {
   return files;
 }
 
-bool uses_image(const terrain::Program& program) {
-  return std::any_of(program.code.begin(), program.code.end(),
-                     [](const terrain::Instruction& i) { return i.type == 4; });
-}
-
 class EveryExampleSceneOnGpu : public ::testing::TestWithParam<std::string> {};
 
-TEST_P(EveryExampleSceneOnGpu, MatchesTheCpuReferenceOrIsRefusedByName) {
+TEST_P(EveryExampleSceneOnGpu, MatchesTheCpuReference) {
   terrain::Result<terrain::Scene> scene = terrain::load_scene_file(GetParam());
   ASSERT_TRUE(scene.ok()) << scene.error().message;
   const terrain::Program program = compile_or_throw(*scene);
   const std::string name = std::filesystem::path(GetParam()).stem().string();
-  if (uses_image(program)) {
-    const terrain::Status s = GpuEvaluator::supports(program);
-    ASSERT_FALSE(s.ok());
-    EXPECT_NE(s.error().message.find("'image'"), std::string::npos) << s.error().message;
-    return;
-  }
+  ASSERT_TRUE(GpuEvaluator::supports(program).ok())
+      << GpuEvaluator::supports(program).error().message;
   expect_scene_matches(*scene, program, "scene " + name);
 }
 

@@ -337,18 +337,44 @@ TEST_F(HttpLimits, KillNineLosesNoAcknowledgedVersion) {
 namespace http_test {
 namespace {
 
-// generation.backend: gpu evaluates on any EGL device (llvmpipe here) and says so per tile;
-// programs the GPU cannot run (image nodes) fall back to the CPU without failing the request.
-TEST_F(HttpLimits, GpuBackendServesGpuTilesAndFallsBackForImages) {
+// generation.backend: gpu evaluates tiles and sphere-traces pictures on any EGL device (llvmpipe
+// here) and says so per response; image nodes (butte) run on the GPU too. A program the device
+// cannot run falls back to the CPU without failing the request: on llvmpipe, one whose
+// evaluation would exceed its shader loop limit (2 400 instanced discs; plain ones, so that the
+// CPU's fallback stays quick).
+TEST_F(HttpLimits, GpuBackendServesGpuTilesAndPicturesAndFallsBackWhenItCannot) {
   start({"--backend", "gpu"});
   const Response gpu_tile =
       get(port_, "/api/v1/scenes/craters@1/tiles/1/1/0.png?scheme=local&size=64");
   ASSERT_EQ(gpu_tile.result_int(), 200u);
-  EXPECT_EQ(header(gpu_tile, "X-Terrain-Backend").rfind("gpu: ", 0), 0u)
-      << header(gpu_tile, "X-Terrain-Backend");
+  const std::string device = header(gpu_tile, "X-Terrain-Backend");
+  EXPECT_EQ(device.rfind("gpu: ", 0), 0u) << device;
   const Response image = get(port_, "/api/v1/scenes/butte@1/tiles/1/1/0.png?scheme=local&size=64");
   ASSERT_EQ(image.result_int(), 200u);
-  EXPECT_EQ(header(image, "X-Terrain-Backend").rfind("cpu (fallback: ", 0), 0u);
+  EXPECT_EQ(header(image, "X-Terrain-Backend"), device);
+  const Response picture = get(port_, "/api/v1/scenes/butte@1/render.png?width=32&height=24");
+  ASSERT_EQ(picture.result_int(), 200u);
+  EXPECT_EQ(header(picture, "X-Terrain-Backend"), device);
+  EXPECT_EQ(header(picture, http::field::content_type), "image/png");
+  if (device.find("llvmpipe") == std::string::npos) return;  // no loop limit to run into
+
+  std::string children;
+  for (int i = 0; i < 2400; ++i) children += std::string(i == 0 ? "" : ",") + R"({"ref": "d"})";
+  const std::string scene =
+      R"({"format": "terrain-scene/1", "name": "many", "seed": 1, "definitions": {"d": {"type":
+ "disc", "center": [0, 0], "radius": 500, "elevation": 10}}, "root": {"type": "blend",
+ "children": [)" +
+      children + "]}}";
+  const Response created = fetch(port_, "POST", "/api/v1/scenes?id=many", with_token(), scene);
+  ASSERT_EQ(created.result_int(), 201u) << created.body();
+  const Response fallback = get(port_, "/api/v1/scenes/many/tiles/0/0/0.png?scheme=local&size=64");
+  ASSERT_EQ(fallback.result_int(), 200u);
+  EXPECT_EQ(header(fallback, "X-Terrain-Backend").rfind("cpu (fallback: ", 0), 0u)
+      << header(fallback, "X-Terrain-Backend");
+  const Response cpu_picture = get(port_, "/api/v1/scenes/many/render.png?width=16&height=16");
+  ASSERT_EQ(cpu_picture.result_int(), 200u);
+  EXPECT_EQ(header(cpu_picture, "X-Terrain-Backend").rfind("cpu (fallback: ", 0), 0u)
+      << header(cpu_picture, "X-Terrain-Backend");
   const Response metrics = get(port_, "/metrics");
   EXPECT_NE(metrics.body().find("backend=\"gpu\""), std::string::npos);
   EXPECT_NE(metrics.body().find("backend=\"cpu-fallback\""), std::string::npos);

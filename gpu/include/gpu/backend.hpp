@@ -21,6 +21,11 @@ class GpuPointsBackend final : public terrain::PointsBackend {
   terrain::Status evaluate(const terrain::Program& program, std::span<const float> x,
                            std::span<const float> y, float spacing, float* f, float* fx,
                            float* fy) override;
+  /// GpuEvaluator::render; programs it cannot run are refused (the caller renders on the CPU).
+  terrain::Result<terrain::Picture> render(const terrain::Program& program,
+                                           const terrain::Box2& area, const terrain::Camera& camera,
+                                           const terrain::RenderOptions& options) override;
+  GpuEvaluator& evaluator() { return *evaluator_; }
 
  private:
   std::unique_ptr<GpuEvaluator> evaluator_;

@@ -59,6 +59,9 @@ class EglContext {
   /// Compiles and links a compute shader; the error carries the driver's info log. Call within a
   /// Scope. Returns the GL program name.
   terrain::Result<unsigned> compile_compute(std::string_view source);
+  /// Compiles (without linking) a fragment shader: tests use it to check that the GLSL the
+  /// browser concatenates is valid GLSL ES 3.00. Call within a Scope.
+  terrain::Status check_fragment_shader(std::string_view source);
 
   struct Handles;  ///< the EGL objects (defined in the source file)
 

@@ -14,6 +14,7 @@
 #include "terrain/evaluate.hpp"
 #include "terrain/program.hpp"
 #include "terrain/result.hpp"
+#include "terrain/sphere_trace.hpp"
 
 namespace gpu {
 
@@ -44,6 +45,25 @@ class GpuEvaluator {
   terrain::Result<terrain::GridResult> evaluate_grid(const terrain::Program& program,
                                                      const terrain::GridSpec& grid);
 
+  /// Several grids of one size (tiles of one zoom and size, each with its own origin, step and
+  /// level of detail) in one upload and one dispatch: every sample equals what evaluate_grid
+  /// gives for its grid alone. Grids of different sizes are refused.
+  terrain::Result<std::vector<terrain::GridResult>> evaluate_grids(
+      const terrain::Program& program, std::span<const terrain::GridSpec> grids);
+
+  /// The picture terrain::render draws for the same arguments, sphere-traced on the GPU by
+  /// gpu/glsl/trace.glsl: same rays, same accelerated sphere tracing over the same
+  /// LipschitzGrid (options.trace.bounds, or the one render builds, cached per program and
+  /// area), same shading. The shader writes RGBA8 and the hit distance per pixel; the result is
+  /// returned as terrain::Picture (RGB, depth −1 where the ray missed, total steps).
+  /// options.threads is ignored; options.progress is called between dispatches.
+  terrain::Result<terrain::Picture> render(const terrain::Program& program,
+                                           const terrain::Box2& area, const terrain::Camera& camera,
+                                           const terrain::RenderOptions& options = {});
+
+  /// How many programs have been uploaded (upload cache misses) since creation.
+  std::size_t program_uploads() const;
+
   /// The GL renderer and version (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
   std::string device_name() const;
 
@@ -52,6 +72,10 @@ class GpuEvaluator {
   struct State;
   struct Run;
   terrain::Status run(const terrain::Program& program, const Run& request);
+  // Within a Scope: the program's uploaded buffers (an Uploaded), from the cache or uploaded now.
+  terrain::Result<const void*> upload(const terrain::Program& program);
+  // Within a Scope: compiles a compute shader at the context's GLSL version.
+  terrain::Result<unsigned> compile(const std::string& source);
   std::unique_ptr<EglContext> context_;
   std::unique_ptr<State> state_;
 };
@@ -63,9 +87,14 @@ class GpuEvaluator {
 std::vector<float> prepare_pool(const terrain::Program& program);
 
 /// The GLSL sources shared with the browser, in the order they are concatenated (after a
-/// backend prelude): noise.glsl, nodes.glsl, interpreter.glsl.
+/// backend prelude): portable_math.glsl, noise.glsl, nodes.glsl, interpreter.glsl.
 std::string_view shared_glsl();
+/// The sphere tracer (trace.glsl), concatenated after shared_glsl(); besides the prelude's
+/// program access it needs fetch_bounds(i) over terrain::LipschitzGrid::pack().
+std::string_view trace_glsl();
 /// The complete compute shader for the given stack sizes (for tests and diagnostics).
 std::string compute_shader_source(int max_fields, int max_frames);
+/// The complete tracing compute shader for the given stack sizes.
+std::string trace_shader_source(int max_fields, int max_frames);
 
 }  // namespace gpu

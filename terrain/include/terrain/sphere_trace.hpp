@@ -30,6 +30,11 @@ class LipschitzGrid {
   /// A bound of |∇f| over `box` at sample spacing `spacing` (or coarser detail).
   float bound(const Box2& box, float spacing) const;
 
+  /// The grid as one float array, for GPU tracers that repeat bound() (gpu/glsl/trace.glsl):
+  /// [cells, levels L, global bound, area lo.x, lo.y, hi.x, hi.y, spacings × L, then L levels of
+  /// cells × cells bounds, row-major from area.lo].
+  std::vector<float> pack() const;
+
  private:
   Box2 area_;
   int cells_;
@@ -78,10 +83,22 @@ struct Camera {
   int width = 640;
   int height = 400;
   Ray ray(float px, float py) const;  ///< through pixel centre (px, py), py = 0 at the top
+
+  /// What ray() derives from the camera before it looks at the pixel: GPU tracers take these
+  /// (computed here, once) and repeat ray()'s per-pixel arithmetic, so both get the same rays.
+  struct Basis {
+    Vec3 forward, right, up;
+    float tan_half = 0.0f;  ///< tan(vertical field of view / 2)
+    float aspect = 1.0f;    ///< width / height
+  };
+  Basis basis() const;
 };
 
 /// Sample spacing per metre of distance that matches one pixel of `camera`.
 float pixel_footprint(const Camera& camera);
+
+/// The unit direction towards the sun in render()'s shading (GPU tracers take it from here).
+Vec3 sun_direction();
 
 /// A shaded picture: sky, fog, height/slope materials, sun light from exact gradients.
 struct Picture {

@@ -12,6 +12,7 @@
 #include "terrain/evaluate.hpp"
 #include "terrain/program.hpp"
 #include "terrain/scene.hpp"
+#include "terrain/sphere_trace.hpp"
 #include "terrain/tile.hpp"
 
 namespace terrain {
@@ -115,6 +116,17 @@ class PointsBackend {
   virtual Status evaluate(const Program& program, std::span<const float> x,
                           std::span<const float> y, float spacing, float* f, float* fx,
                           float* fy) = 0;
+  /// The picture terrain::render draws for the same arguments (within float rounding of the
+  /// shading). An error (no tracer, unsupported node type, lost context, ...) makes the caller
+  /// render on the CPU instead; backends without a tracer keep this default.
+  virtual Result<Picture> render(const Program& program, const Box2& area, const Camera& camera,
+                                 const RenderOptions& options) {
+    static_cast<void>(program);
+    static_cast<void>(area);
+    static_cast<void>(camera);
+    static_cast<void>(options);
+    return Error{name() + " does not render pictures", ""};
+  }
 };
 
 /// Generates tiles. Holds evaluators, so it is not thread-safe: use one per thread.
