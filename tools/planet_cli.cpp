@@ -2,13 +2,17 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
+#include <iterator>
 #include <map>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "cli_args.hpp"
+#include "planet/continent_map.hpp"
 #include "planet/picture.hpp"
 #include "planet/planet.hpp"
 #include "planet/tiles.hpp"
@@ -30,6 +34,11 @@ Usage:
        [--grid N] [--gunzip]             one geographic (EPSG:4326, TMS) tile
   planet layer-json PLANET.json          Cesium layer.json for the planet's tiles
   planet --help
+
+  --continent-map MAP.png (any command): continents from a greyscale equirectangular PNG
+  (white = land, at least 0.5) instead of random ones. The definition's continent_map becomes
+  the file's hash; a definition that names another hash is refused, and one that names a map
+  needs this option.
 )";
 
 using Args = tools::CliArgs;
@@ -54,12 +63,47 @@ double elapsed_ms(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
+std::optional<std::vector<std::uint8_t>> read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                  std::istreambuf_iterator<char>());
+  if (in.bad()) return std::nullopt;
+  return bytes;
+}
+
 int run(const Args& args) {
   const std::string& command = args.positional[0];
   Result<PlanetDefinition> definition = load_planet_file(args.positional[1]);
   if (!definition) {
     std::cerr << "planet " << command << ": " << definition.error().pointer << ": "
               << definition.error().message << "\n";
+    return 1;
+  }
+  // The CLI reads a local map file; the planet library and the server never open one.
+  std::optional<ContinentMap> map;
+  if (args.has("--continent-map")) {
+    const std::string path = args.get("--continent-map", "");
+    const auto bytes = read_file(path);
+    if (!bytes) {
+      std::cerr << "planet " << command << ": cannot read " << path << "\n";
+      return 1;
+    }
+    Result<ContinentMap> decoded = decode_continent_map(*bytes);
+    if (!decoded) {
+      std::cerr << "planet " << command << ": " << path << ": " << decoded.error().message << "\n";
+      return 1;
+    }
+    if (!definition->continent_map.empty() && definition->continent_map != decoded->hash) {
+      std::cerr << "planet " << command << ": /continent_map: the definition names "
+                << definition->continent_map << " but " << path << " is " << decoded->hash << "\n";
+      return 1;
+    }
+    definition->continent_map = decoded->hash;
+    map = std::move(decoded).value();
+  } else if (!definition->continent_map.empty() && command != "id") {
+    std::cerr << "planet " << command << ": /continent_map: the definition names "
+              << definition->continent_map << "; give the image with --continent-map FILE.png\n";
     return 1;
   }
   if (command == "id") {
@@ -72,8 +116,16 @@ int run(const Args& args) {
   const auto threads = integer_arg("--threads", args.get("--threads", "1"), 1, 256);
   if (!threads) return 2;
   const auto start = std::chrono::steady_clock::now();
-  std::shared_ptr<const Planet> world = Planet::create(*definition, {static_cast<int>(*threads)});
+  Result<std::shared_ptr<const Planet>> built =
+      Planet::build(*definition, map ? &*map : nullptr, {static_cast<int>(*threads)});
   const double build_ms = elapsed_ms(start);
+  if (!built) {
+    std::cerr << "planet " << command << ": " << built.error().pointer << ": "
+              << built.error().message << "\n";
+    return 1;
+  }
+  map.reset();  // the base mesh holds what it needs; the pixels may be large
+  const std::shared_ptr<const Planet> world = std::move(built).value();
   if (command == "mesh") {
     const BaseMeshStats& s = world->base_mesh().stats;
     std::cout << nlohmann::json{{"id", world->id()},

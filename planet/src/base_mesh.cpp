@@ -12,6 +12,7 @@
 #include <unordered_map>
 
 #include "gradient_noise.hpp"
+#include "planet/geodesy.hpp"
 
 namespace planet {
 namespace {
@@ -58,16 +59,21 @@ struct Edge {
 // §4.1 and §4.2 on the level-B mesh.
 class Classifier {
  public:
-  Classifier(BaseMesh& mesh, const std::vector<std::int32_t>& faces)
+  Classifier(BaseMesh& mesh, const std::vector<std::int32_t>& faces, const ContinentMap* map)
       : mesh_(mesh),
         h_(mesh.hierarchy),
         def_(mesh.rules.def),
         faces_(faces),
+        map_(map),
         random_(mix64(def_.seed ^ 0x636f6e74696e656eULL)) {}
 
   void run() {
     index();
-    grow_continents();
+    if (map_ != nullptr) {
+      continents_from_map();
+    } else {
+      grow_continents();
+    }
     label_edges();
     grow_rivers();
     assign_altitudes();
@@ -201,6 +207,52 @@ class Classifier {
     }
     mesh_.stats.land_fraction = land_area_ / kFourPi;
     mesh_.stats.continents = static_cast<int>(frontier_.size());
+  }
+
+  // The paper's alternative to growing continents: the face types come from a bitmap. A face is
+  // land where the map, sampled at the face's centre, is land; continents are the connected land
+  // components (faces sharing an edge), numbered in face order. Unlike grown continents, two
+  // components may touch at a vertex; such a vertex has sea faces around it too, so it is coast,
+  // and everything after this step only asks whether a vertex touches land, never whose it is.
+  void continents_from_map() {
+    owner_.assign(h_.vertices.size(), -1);
+    land_.assign(faces_.size(), false);
+    // The centre's direction read as geographic coordinates the way tiles and samples read
+    // them (geodetic latitude on an ellipsoid), so the map lines up with the products.
+    const Geodesy geodesy(def_.radius, def_.flattening);
+    for (std::size_t f = 0; f < faces_.size(); ++f) {
+      const Tri& t = tri(faces_[f]);
+      const Vec3d c = normalize(add(add(vertex(t.v[0]).p, vertex(t.v[1]).p), vertex(t.v[2]).p));
+      double latitude = 0.0, longitude = 0.0;
+      geodesy.direction_to_geographic(c, latitude, longitude);
+      land_[f] = map_->land(latitude, longitude);
+    }
+    std::vector<int> component(faces_.size(), -1);
+    std::vector<std::size_t> stack;
+    int count = 0;
+    for (std::size_t start = 0; start < faces_.size(); ++start) {
+      if (!land_[start] || component[start] >= 0) continue;
+      component[start] = count;
+      stack.push_back(start);
+      while (!stack.empty()) {
+        const std::size_t f = stack.back();
+        stack.pop_back();
+        land_area_ += area_[f];
+        for (std::uint32_t v : tri(faces_[f]).v) {
+          if (owner_[v] < 0) owner_[v] = count;
+        }
+        for (int k = 0; k < 3; ++k) {
+          const auto g = static_cast<std::size_t>(face_across(f, k));
+          if (land_[g] && component[g] < 0) {
+            component[g] = count;
+            stack.push_back(g);
+          }
+        }
+      }
+      ++count;
+    }
+    mesh_.stats.land_fraction = land_area_ / kFourPi;
+    mesh_.stats.continents = count;
   }
 
   void label_edges() {
@@ -413,6 +465,7 @@ class Classifier {
   Hierarchy& h_;
   const PlanetDefinition& def_;
   const std::vector<std::int32_t>& faces_;
+  const ContinentMap* map_;
   Random random_;
   std::vector<std::int32_t> face_of_;
   std::vector<std::vector<std::int32_t>> incident_;
@@ -434,7 +487,7 @@ class Classifier {
 }  // namespace
 
 std::unique_ptr<BaseMesh> build_base_mesh(const PlanetDefinition& definition,
-                                          const BuildOptions& options) {
+                                          const BuildOptions& options, const ContinentMap* map) {
   auto mesh = std::make_unique<BaseMesh>(definition);
   Hierarchy& h = mesh->hierarchy;
   h.make_octahedron(definition.seed);
@@ -446,7 +499,7 @@ std::unique_ptr<BaseMesh> build_base_mesh(const PlanetDefinition& definition,
     for (std::int32_t t : level_tris) h.ensure_partner(t);
     if (level == mesh->rules.base_level) {
       mesh->river_faces = level_tris;
-      Classifier(*mesh, level_tris).run();
+      Classifier(*mesh, level_tris, map).run();
     }
     std::vector<std::int32_t> diamonds;
     for (std::int32_t t : level_tris) {

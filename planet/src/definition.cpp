@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <fstream>
 #include <functional>
@@ -94,6 +95,15 @@ Result<int> read_int(const nlohmann::json& value, const std::string& pointer, in
   return static_cast<int>(value.get<std::int64_t>());
 }
 
+// "sha256:" and 64 lowercase hex digits: the form POST /api/v1/images answers, and the only one,
+// so that one image has one spelling and one planet id.
+bool valid_image_reference(std::string_view text) {
+  constexpr std::string_view prefix = "sha256:";
+  if (text.size() != prefix.size() + 64 || !text.starts_with(prefix)) return false;
+  return std::all_of(text.begin() + static_cast<std::ptrdiff_t>(prefix.size()), text.end(),
+                     [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+}
+
 }  // namespace
 
 int PlanetDefinition::base_levels() const {
@@ -128,6 +138,16 @@ Result<PlanetDefinition> parse_planet(const nlohmann::json& document) {
       Result<int> n = read_int(value, pointer, 64, 65536);
       if (!n) return n.error();
       d.base_faces = *n;
+      continue;
+    }
+    if (key == "continent_map") {
+      if (!value.is_string() || !valid_image_reference(value.get<std::string>())) {
+        return Error{
+            "must be the hash of an uploaded image, \"sha256:\" and 64 lowercase hex digits "
+            "(POST /api/v1/images answers it); paths and URLs are not accepted",
+            pointer};
+      }
+      d.continent_map = value.get<std::string>();
       continue;
     }
     if (key == "detail") {
@@ -194,6 +214,7 @@ nlohmann::json canonical_json(const PlanetDefinition& d) {
   nlohmann::json detail = nlohmann::json::object();
   for (const DetailField& f : detail_fields()) detail[f.name] = d.detail.*(f.member);
   out["detail"] = std::move(detail);
+  if (!d.continent_map.empty()) out["continent_map"] = d.continent_map;
   return out;
 }
 

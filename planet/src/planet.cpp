@@ -23,8 +23,9 @@ std::string_view surface_name(SurfaceType type) {
   return "land";
 }
 
-Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options)
-    : base_(build_base_mesh(definition, options)),
+Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options,
+               const ContinentMap* map)
+    : base_(build_base_mesh(definition, options, map)),
       geodesy_(definition.radius, definition.flattening),
       id_(planet_id(definition)) {
   const PlanetDefinition& d = definition;
@@ -39,13 +40,41 @@ Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options)
 
 std::shared_ptr<const Planet> Planet::create(const PlanetDefinition& definition,
                                              const BuildOptions& options) {
-  return std::shared_ptr<const Planet>(new Planet(definition, options));
+  Result<std::shared_ptr<const Planet>> planet = build(definition, nullptr, options);
+  return planet ? std::move(planet).value() : nullptr;
+}
+
+Result<std::shared_ptr<const Planet>> Planet::build(const PlanetDefinition& definition,
+                                                    const ContinentMap* map,
+                                                    const BuildOptions& options) {
+  // The id hashes the definition, map reference included: a planet built from other pixels than
+  // the ones its definition names would serve different tiles under the same immutable URLs.
+  if (map == nullptr && !definition.continent_map.empty()) {
+    return Error{"names continent map " + definition.continent_map +
+                     "; its decoded pixels are needed to build the planet",
+                 "/continent_map"};
+  }
+  if (map != nullptr) {
+    if (definition.continent_map.empty()) {
+      return Error{
+          "a continent map was given but the definition names none (set it to the "
+          "map's hash)",
+          "/continent_map"};
+    }
+    if (!map->hash.empty() && map->hash != definition.continent_map) {
+      return Error{"the continent map given is " + map->hash + ", the definition names " +
+                       definition.continent_map,
+                   "/continent_map"};
+    }
+    if (terrain::Status ok = map->validate(); !ok) return ok.error();
+  }
+  return std::shared_ptr<const Planet>(new Planet(definition, options, map));
 }
 
 Result<std::shared_ptr<const Planet>> Planet::from_json(const nlohmann::json& document) {
   Result<PlanetDefinition> definition = parse_planet(document);
   if (!definition) return definition.error();
-  return create(*definition);
+  return build(*definition, nullptr);
 }
 
 int Planet::level_for_spacing(double spacing) const {

@@ -6,11 +6,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "gpu/backend.hpp"
+#include "planet/continent_map.hpp"
 #include "planet/definition.hpp"
 #include "planet/tiles.hpp"
 #include "terrain/gzip.hpp"
@@ -1350,6 +1352,37 @@ json planet_summary(const StoredPlanet& p, bool is_default) {
           {"definition", json::parse(p.canonical_json, nullptr, false)}};
 }
 
+// The continent map a definition names, looked up in the store by its hash and decoded: the only
+// way a definition reaches an image, so it can never make the server read a file or fetch a URL.
+struct MapLookup {
+  enum class Failure { none, unknown, unavailable, invalid };
+  Failure failure = Failure::none;
+  std::string message;
+  std::optional<planet::ContinentMap> map;  ///< empty when the definition names none
+};
+
+MapLookup load_continent_map(Store& store, const planet::PlanetDefinition& definition) {
+  MapLookup out;
+  if (definition.continent_map.empty()) return out;
+  StoreResult<Blob> blob = store.blob(definition.continent_map);
+  if (!blob) {
+    const bool missing = blob.error().kind == StoreError::Kind::not_found;
+    out.failure = missing ? MapLookup::Failure::unknown : MapLookup::Failure::unavailable;
+    out.message = missing ? "no uploaded image has the hash " + definition.continent_map +
+                                " (upload it with POST /api/v1/images first)"
+                          : blob.error().message;
+    return out;
+  }
+  planet::Result<planet::ContinentMap> map = planet::decode_continent_map(blob->bytes);
+  if (!map) {
+    out.failure = MapLookup::Failure::invalid;
+    out.message = map.error().message;
+    return out;
+  }
+  out.map = std::move(map).value();
+  return out;
+}
+
 }  // namespace
 
 terrain::Status App::seed_planets() {
@@ -1369,6 +1402,12 @@ terrain::Status App::seed_planets() {
     }
     // Stored on every start, not only the first: put_planet is idempotent, and a changed
     // default.json is a new planet (a new id) that the alias must find in the store.
+    // A built-in planet may name a continent map only once the image is in the store: refusing
+    // to start beats serving a planet whose every product fails.
+    if (MapLookup lookup = load_continent_map(*store_, *definition);
+        lookup.failure != MapLookup::Failure::none) {
+      return Error{file.string() + ": " + lookup.message, "/continent_map"};
+    }
     const StoredPlanet planet{planet::planet_id(*definition), planet::canonical_text(*definition),
                               0};
     StoreResult<PlanetPut> put = store_->put_planet(planet);
@@ -1409,8 +1448,22 @@ terrain::Result<LoadedPlanet, Response> App::resolve_planet(const Request& reque
   // Building the base mesh takes milliseconds, once per planet and process; two first requests
   // at once may both build it, which costs time but changes nothing (the build is a pure
   // function of the definition).
+  Result<planet::PlanetDefinition> definition = planet::parse_planet_text(stored->canonical_json);
+  if (!definition) {
+    return problem(request, http::status::internal_server_error, "Stored planet unreadable",
+                   definition.error().message, definition.error().pointer);
+  }
+  // The map is looked up again after a restart: the store keeps images as it keeps planets.
+  MapLookup lookup = load_continent_map(*store_, *definition);
+  if (lookup.failure == MapLookup::Failure::unavailable) {
+    return store_problem(request, StoreError{StoreError::Kind::unavailable, lookup.message});
+  }
+  if (lookup.failure != MapLookup::Failure::none) {
+    return problem(request, http::status::internal_server_error, "Stored planet unreadable",
+                   lookup.message, "/continent_map");
+  }
   Result<std::shared_ptr<const planet::Planet>> built =
-      planet::Planet::from_json(json::parse(stored->canonical_json, nullptr, false));
+      planet::Planet::build(*definition, lookup.map ? &*lookup.map : nullptr);
   if (!built) {
     return problem(request, http::status::internal_server_error, "Stored planet unreadable",
                    built.error().message, built.error().pointer);
@@ -1443,6 +1496,22 @@ Response App::create_planet(const Request& request) {
   if (!definition) {
     return problem(request, http::status::bad_request, "Invalid planet", definition.error().message,
                    definition.error().pointer);
+  }
+  // A continent map must be an uploaded image that decodes as one now, so that a stored planet
+  // can always be built. Decoding it here costs what the image upload's own check cost.
+  if (MapLookup lookup = load_continent_map(*store_, *definition);
+      lookup.failure != MapLookup::Failure::none) {
+    if (lookup.failure == MapLookup::Failure::unknown) {
+      return problem(request, http::status::bad_request, "Unknown continent map", lookup.message,
+                     "/continent_map");
+    }
+    if (lookup.failure == MapLookup::Failure::unavailable) {
+      return store_problem(request, StoreError{StoreError::Kind::unavailable, lookup.message});
+    }
+    // An image, but not one a map can be (colour, wrong size or shape): well-formed request,
+    // unusable content.
+    return problem(request, http::status::unprocessable_entity, "Invalid continent map",
+                   lookup.message, "/continent_map");
   }
   const StoredPlanet planet{planet::planet_id(*definition), planet::canonical_text(*definition), 0};
   StoreResult<PlanetPut> put = store_->put_planet(planet);

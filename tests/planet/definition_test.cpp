@@ -80,5 +80,40 @@ TEST(PlanetDefinition, TheBuiltInDefaultPlanetParses) {
   EXPECT_LT(d->max_river_altitude, d->max_mountain_altitude);
 }
 
+TEST(PlanetDefinition, ContinentMapIsPartOfTheCanonicalJsonAndTheId) {
+  const std::string hash = "sha256:" + std::string(64, 'a');
+  Result<PlanetDefinition> with =
+      parse_planet_text(R"({"seed": 7, "continent_map": ")" + hash + R"("})");
+  ASSERT_TRUE(with.ok()) << with.error().message;
+  EXPECT_EQ(with->continent_map, hash);
+  EXPECT_EQ(canonical_json(*with).at("continent_map"), hash);
+  Result<PlanetDefinition> back = parse_planet(canonical_json(*with));
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(planet_id(*back), planet_id(*with));
+  // Another image is another planet, and so is none.
+  PlanetDefinition other = *with;
+  other.continent_map = "sha256:" + std::string(64, 'b');
+  EXPECT_NE(planet_id(other), planet_id(*with));
+  Result<PlanetDefinition> without = parse_planet_text(R"({"seed": 7})");
+  ASSERT_TRUE(without.ok());
+  EXPECT_NE(planet_id(*without), planet_id(*with));
+  // Without a map the field is left out, so planets defined before it existed keep their ids.
+  EXPECT_FALSE(canonical_json(*without).contains("continent_map"));
+}
+
+TEST(PlanetDefinition, ContinentMapMustBeAnImageHashNeverAPathOrUrl) {
+  const std::string hex(64, '0');
+  for (const std::string& value :
+       {std::string("5"), std::string("null"), std::string("\"maps/earth.png\""),
+        std::string("\"https://example.com/earth.png\""), std::string("\"file:///etc/passwd\""),
+        "\"" + hex + "\"", "\"sha256:" + hex.substr(1) + "\"", "\"sha256:" + hex + "0\"",
+        "\"SHA256:" + hex + "\"", "\"sha256:" + std::string(64, 'A') + "\"",
+        "\"sha256:" + std::string(63, '0') + "g\"", std::string("\"\"")}) {
+    Result<PlanetDefinition> d = parse_planet_text(R"({"continent_map": )" + value + "}");
+    ASSERT_FALSE(d.ok()) << value;
+    EXPECT_EQ(d.error().pointer, "/continent_map") << value;
+  }
+}
+
 }  // namespace
 }  // namespace planet

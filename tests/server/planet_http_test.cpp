@@ -5,10 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <set>
+#include <tuple>
 
 #include "http_harness.hpp"
+#include "planet/continent_map.hpp"
 #include "planet/definition.hpp"
 #include "planet/planet.hpp"
 #include "planet/tiles.hpp"
@@ -363,6 +366,133 @@ TEST_F(HttpPlanets, AnotherServerProcessServesIdenticalBytesAndRefusesCostlyTile
   const Response costly = http_test::get(other.port(), "/api/v1/planets/default/tiles/5/40/20.png");
   expect_problem(costly, 422, "");
   EXPECT_EQ(metric(other.port(), "terrain_cache_misses_total"), 3.0);  // refused before the cache
+}
+
+// ---------------------------------------------------------------------------------------------
+// Continent maps: an uploaded image, named by its hash.
+
+// An equirectangular greyscale PNG, land (white) inside a spherical cap around (20°N, 30°E)
+// of radius 40°.
+std::string cap_png(int width = 256, int height = 128) {
+  constexpr double degree = 3.14159265358979323846 / 180.0;
+  std::vector<std::uint8_t> pixels(static_cast<std::size_t>(width * height));
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const double lat = (90.0 - 180.0 * (y + 0.5) / height) * degree;
+      const double lon = (-180.0 + 360.0 * (x + 0.5) / width) * degree;
+      const double c = std::sin(lat) * std::sin(20 * degree) +
+                       std::cos(lat) * std::cos(20 * degree) * std::cos(lon - 30 * degree);
+      pixels[static_cast<std::size_t>(y * width + x)] = c >= std::cos(40 * degree) ? 255 : 0;
+    }
+  }
+  const auto png = terrain::encode_png_gray8(width, height, pixels.data()).value();
+  return {png.begin(), png.end()};
+}
+
+std::string upload(int port, const std::string& image) {
+  const Response r = http_test::fetch(port, "POST", "/api/v1/images", with_token(), image);
+  EXPECT_EQ(r.result_int(), 201u) << r.body();
+  return body_json(r).value("hash", std::string());
+}
+
+std::string map_planet(const std::string& hash) {
+  return R"({"seed": 78, "base_faces": 600, "continent_map": ")" + hash + R"("})";
+}
+
+TEST_F(HttpPlanets, AContinentMapFromAnUploadedImageShapesThePlanet) {
+  const std::string image = cap_png();
+  const std::string hash = upload(port_, image);
+  ASSERT_EQ(hash, planet::continent_map_reference(bytes_of(image)));
+  const Response created = post(map_planet(hash));
+  ASSERT_TRUE(created.result_int() == 201u || created.result_int() == 200u) << created.body();
+  const std::string id = body_json(created)["id"];
+  EXPECT_EQ(body_json(created)["definition"]["continent_map"], hash);
+  // The stored definition names the map, and the id hashes it.
+  const Response definition = get("/api/v1/planets/" + id);
+  ASSERT_EQ(definition.result_int(), 200u) << definition.body();
+  const planet::PlanetDefinition parsed = planet::parse_planet_text(definition.body()).value();
+  EXPECT_EQ(parsed.continent_map, hash);
+  EXPECT_EQ(planet::planet_id(parsed), id);
+
+  const Response tile = get("/api/v1/planets/" + id + "/tiles/1/1/0.png?size=64");
+  ASSERT_EQ(tile.result_int(), 200u) << tile.body();
+  // Land where the map is white, sea elsewhere; the library, given the same bytes, agrees.
+  const auto map = planet::decode_continent_map(bytes_of(image));
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  auto world = planet::Planet::build(parsed, &*map);
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  planet::Sampler sampler(*world);
+  for (const auto& [lat, lon, sea] :
+       {std::tuple{20.0, 30.0, false}, std::tuple{-40.0, -120.0, true}}) {
+    const Response r = get("/api/v1/planets/" + id + "/sample?lat=" + std::to_string(lat) +
+                           "&lon=" + std::to_string(lon));
+    ASSERT_EQ(r.result_int(), 200u) << r.body();
+    const json s = body_json(r);
+    EXPECT_EQ(s["type"] == "sea", sea) << s;
+    const planet::PointSample expected = sampler.sample(lat, lon);
+    EXPECT_EQ(s["ground"].get<double>(), expected.ground);
+    EXPECT_EQ(s["type"], planet::surface_name(expected.type));
+  }
+}
+
+TEST_F(HttpPlanets, AContinentMapMustBeAnUploadedUsableImageAndARefusalStoresNothing) {
+  const std::size_t count = planet_count();
+  // Never seen: the server has nothing to build from.
+  expect_problem(post(map_planet("sha256:" + std::string(64, 'e'))), 400, "/continent_map");
+  // Not a hash: paths and URLs are refused by the definition's parser.
+  expect_problem(post(R"({"continent_map": "/etc/passwd"})"), 400, "/continent_map");
+  expect_problem(post(R"({"continent_map": "https://example.com/map.png"})"), 400,
+                 "/continent_map");
+  // Uploaded images that cannot be maps: colour, square.
+  std::vector<std::uint8_t> rgb(64 * 32 * 3, 0);
+  const auto colour = terrain::encode_png_rgb8(64, 32, rgb.data()).value();
+  const std::string colour_hash = upload(port_, std::string(colour.begin(), colour.end()));
+  expect_problem(post(map_planet(colour_hash)), 422, "/continent_map");
+  const std::string square_hash = upload(port_, cap_png(64, 64));
+  expect_problem(post(map_planet(square_hash)), 422, "/continent_map");
+  EXPECT_EQ(planet_count(), count);
+}
+
+// The map is an image in the store like the definition: a restarted server finds both again
+// and serves the same bytes.
+TEST(HttpPlanetRestart, AContinentMapPlanetIsRebuiltFromTheStoreAfterARestart) {
+  TempDir dir("planets-restart");
+  const std::vector<std::string> flags = {"--write-token", kToken};
+  std::string id, before;
+  const std::string tile = "/tiles/2/3/1.png?size=64&encoding=terrarium";
+  {
+    ServerProcess server(dir.path() / "data", flags);
+    const std::string hash = upload(server.port(), cap_png());
+    const Response created =
+        http_test::fetch(server.port(), "POST", "/api/v1/planets", with_token(), map_planet(hash));
+    ASSERT_EQ(created.result_int(), 201u) << created.body();
+    id = body_json(created)["id"];
+    const Response r = http_test::get(server.port(), "/api/v1/planets/" + id + tile);
+    ASSERT_EQ(r.result_int(), 200u) << r.body();
+    before = r.body();
+    server.stop();
+  }
+  ServerProcess again(dir.path() / "data", flags);
+  const Response r = http_test::get(again.port(), "/api/v1/planets/" + id + tile);
+  ASSERT_EQ(r.result_int(), 200u) << r.body();
+  EXPECT_EQ(r.body(), before);
+  // A tile never made before the restart: built now, from the stored image, as the library does.
+  const std::string image = cap_png();
+  const auto map = planet::decode_continent_map(bytes_of(image));
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  const auto definition = planet::parse_planet_text(map_planet(map->hash));
+  ASSERT_TRUE(definition.ok());
+  auto world = planet::Planet::build(*definition, &*map);
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  planet::PlanetTiles tiles(*world);
+  terrain::ProductOptions small;
+  small.size = 64;
+  const auto expected = tiles.make({3, 9, 5}, terrain::TileFormat::terrain_rgb, small);
+  ASSERT_TRUE(expected.ok()) << expected.error().message;
+  const Response fresh =
+      http_test::get(again.port(), "/api/v1/planets/" + id + "/tiles/3/9/5.png?size=64");
+  ASSERT_EQ(fresh.result_int(), 200u) << fresh.body();
+  EXPECT_EQ(bytes_of(fresh.body()), expected->bytes);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "planet/continent_map.hpp"
 #include "planet/mesh.hpp"
 
 namespace planet {
@@ -24,7 +25,9 @@ struct BaseMeshStats {
   int river_faces = 0;         ///< faces of the level-B mesh continents and rivers live on
   int mesh_faces = 0;          ///< faces after the mountain levels (what refinement starts from)
   double land_fraction = 0.0;  ///< land area over the sphere's, on the level-B faces
-  int continents = 0;          ///< continents seeded (islands started when others were blocked)
+  /// Continents seeded (islands started when others were blocked); with a continent map, its
+  /// connected land components.
+  int continents = 0;
   int mouths = 0;
   int river_vertices = 0;      ///< continental vertices on a river (all of them, §4.2)
   int endorheic = 0;           ///< river ends that could not reach the sea
@@ -50,7 +53,12 @@ class BaseMesh {
   std::string hash() const;
 };
 
+/// `map`: null for random continents (§4.1); else the land faces are where the map says
+/// (ContinentMap::land at each level-B face's centre), and the definition's continents and
+/// land_fraction are ignored. The caller makes sure the map is the one the definition names
+/// (Planet::build checks it).
 std::unique_ptr<BaseMesh> build_base_mesh(const PlanetDefinition& definition,
-                                          const BuildOptions& options = {});
+                                          const BuildOptions& options = {},
+                                          const ContinentMap* map = nullptr);
 
 }  // namespace planet

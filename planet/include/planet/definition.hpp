@@ -50,6 +50,11 @@ struct PlanetDefinition {
   int base_faces = 5000;                 ///< base shape accuracy; rounded to 8·2^k faces
   double finest_edge = 10.0;  ///< refinement stops at edges this short; detail noise goes on
   DetailParams detail;
+  /// "" (random continents), or "sha256:<64 lowercase hex>": the hash of an image whose pixels
+  /// say where land is (planet/continent_map.hpp). Only a hash, never a path or URL, so a
+  /// definition can never make a server read a file or fetch anything; whoever builds the planet
+  /// supplies the decoded pixels. With a map, `continents` and `land_fraction` are ignored.
+  std::string continent_map;
 
   /// Faces of the base mesh after rounding: the 8·2^k nearest to base_faces (in log scale).
   int base_levels() const;
@@ -64,7 +69,8 @@ Result<PlanetDefinition> parse_planet_text(std::string_view text);
 /// Reads a definition file.
 Result<PlanetDefinition> load_planet_file(const std::string& path);
 
-/// Every field explicit: parse_planet(canonical_json(d)) gives d back.
+/// Every field explicit, except continent_map, which is written only when set (so planets
+/// defined before the field existed keep their ids): parse_planet(canonical_json(d)) gives d back.
 nlohmann::json canonical_json(const PlanetDefinition& definition);
 /// The canonical text: keys sorted, no whitespace, shortest round-trip numbers.
 std::string canonical_text(const PlanetDefinition& definition);

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "planet/base_mesh.hpp"
+#include "planet/continent_map.hpp"
 #include "planet/definition.hpp"
 #include "planet/geodesy.hpp"
 #include "terrain/math.hpp"
@@ -36,10 +37,19 @@ struct PointSample {
 
 class Planet {
  public:
-  /// Builds the base mesh (the expensive part, tens of milliseconds).
+  /// Builds the base mesh (the expensive part, tens of milliseconds) of a definition without a
+  /// continent map. A definition that names one needs its pixels (build): null is returned.
   static std::shared_ptr<const Planet> create(const PlanetDefinition& definition,
                                               const BuildOptions& options = {});
-  /// Parses, validates and builds; errors name the field (see parse_planet).
+  /// Builds the planet with its continent map, or without one (null): refused, naming
+  /// "/continent_map", when the definition names a map and none is given, a map is given for a
+  /// definition that names none, the map's hash is not the one named (a map made in memory,
+  /// with an empty hash, is taken as the caller vouches), or the map is invalid.
+  static Result<std::shared_ptr<const Planet>> build(const PlanetDefinition& definition,
+                                                     const ContinentMap* map,
+                                                     const BuildOptions& options = {});
+  /// Parses, validates and builds; errors name the field (see parse_planet). A definition that
+  /// names a continent map is refused (its pixels are not in the JSON: parse, decode, build).
   static Result<std::shared_ptr<const Planet>> from_json(const nlohmann::json& document);
 
   const PlanetDefinition& definition() const { return base_->rules.def; }
@@ -64,7 +74,7 @@ class Planet {
   double detail(const Vec3d& direction, double octaves) const;
 
  private:
-  Planet(const PlanetDefinition& definition, const BuildOptions& options);
+  Planet(const PlanetDefinition& definition, const BuildOptions& options, const ContinentMap* map);
   std::unique_ptr<BaseMesh> base_;
   Geodesy geodesy_;
   std::string id_;
