@@ -11,6 +11,7 @@ packages=(
   libboost1.81-dev libtomlplusplus-dev libsqlite3-dev
   gdal-bin nodejs clang libclang-rt-14-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
+  chromium
 )
 
 missing=()
@@ -29,8 +30,11 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
-# JavaScript tools the tests use (the glTF validator), pinned by package-lock.json, installed once.
+# JavaScript tools the tests use (the glTF validator, playwright-core driving Debian's chromium),
+# pinned by package-lock.json; installed again only when the lock file is newer than the install.
 repo_root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-if [ -f "$repo_root/package-lock.json" ] && [ ! -d "$repo_root/node_modules" ]; then
-  (cd "$repo_root" && npm ci --no-audit --no-fund --loglevel=error)
+installed_lock="$repo_root/node_modules/.package-lock.json"
+if [ -f "$repo_root/package-lock.json" ] &&
+  { [ ! -f "$installed_lock" ] || [ "$repo_root/package-lock.json" -nt "$installed_lock" ]; }; then
+  (cd "$repo_root" && PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --no-audit --no-fund --loglevel=error)
 fi

@@ -246,6 +246,11 @@ std::string_view shared_glsl() {
   return text;
 }
 
+std::pair<int, int> shader_stacks(const terrain::Program& program) {
+  // Rounded up so that programs of similar depth share compiled shaders.
+  return {round_up(program.max_field_depth + 1, 4), round_up(program.max_frame_depth + 1, 2)};
+}
+
 std::string_view trace_glsl() {
   return glsl::trace();
 }
@@ -420,7 +425,7 @@ terrain::Result<const void*> GpuEvaluator::upload(const terrain::Program& progra
   u.code = make_buffer(program.code.data(), program.code.size() * sizeof(terrain::Instruction));
   const std::vector<float> pool = prepare_pool(program);
   u.pool = make_buffer(pool.data(), pool.size() * sizeof(float));
-  u.stacks = {round_up(program.max_field_depth + 1, 4), round_up(program.max_frame_depth + 1, 2)};
+  u.stacks = shader_stacks(program);
   if (terrain::Status s = gl_check("uploading the program"); !s) {
     glDeleteBuffers(1, &u.code);
     glDeleteBuffers(1, &u.pool);

@@ -1,6 +1,7 @@
 #include "server/app.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -12,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gpu/backend.hpp"
+#include "gpu/evaluator.hpp"
 #include "planet/continent_map.hpp"
 #include "planet/definition.hpp"
 #include "planet/tiles.hpp"
@@ -217,6 +219,32 @@ bool etag_matches(const Request& request, const std::string& etag) {
 
 std::string product_etag(std::string_view body) {
   return quote(terrain::sha256_hex(body).substr(0, 32));
+}
+
+// A JSON product from its text: gzipped when the client takes it and it is worth it, a strong
+// ETag of the bytes sent (the gzipped and the plain representation differ), 304 when the client
+// has them.
+Response json_text_response(const Request& request, const std::string& text,
+                            std::string_view cache_control) {
+  Response r = make_response(request, http::status::ok, "", "application/json");
+  r.set(http::field::vary, "Accept-Encoding, Origin");
+  r.set(http::field::cache_control, cache_control);
+  std::string sent = text;
+  if (accepts_gzip(request) && text.size() > 1024) {
+    if (auto packed = terrain::gzip_compress(std::string_view(text), 6)) {
+      r.set(http::field::content_encoding, "gzip");
+      sent.assign(packed->begin(), packed->end());
+    }
+  }
+  const std::string etag = product_etag(sent);
+  r.set(http::field::etag, etag);
+  if (etag_matches(request, etag)) {
+    r.result(http::status::not_modified);
+    return r;
+  }
+  r.body() = std::move(sent);
+  r.prepare_payload();
+  return r;
 }
 
 std::string query_value(const std::map<std::string, std::string>& query, const std::string& key,
@@ -475,7 +503,9 @@ std::string_view App::route_label(const Request& request) {
   const std::string_view path = t.substr(0, t.find('?'));
   if (path == "/healthz") return "healthz";
   if (path == "/metrics") return "metrics";
-  if (!path.starts_with("/api/v1/")) return path == "/" ? "client" : "other";
+  if (!path.starts_with("/api/")) return "client";  // the browser client's files
+  if (!path.starts_with("/api/v1/")) return "other";
+  if (path.starts_with("/api/v1/glsl/")) return "glsl";
   if (path == "/api/v1/planets") return "planets";
   if (path.starts_with("/api/v1/planets/")) {
     static constexpr std::array<std::pair<std::string_view, std::string_view>, 5> planet_kinds = {{
@@ -490,8 +520,11 @@ std::string_view App::route_label(const Request& request) {
     }
     return "planet";
   }
-  static constexpr std::array<std::pair<std::string_view, std::string_view>, 7> kinds = {{
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 10> kinds = {{
       {"/tiles/", "tiles"},
+      {"/render.png", "render"},
+      {"/depth.bin", "depth"},
+      {"/trace.json", "trace.json"},
       {"/mesh/", "mesh"},
       {"/versions", "versions"},
       {"/program", "program"},
@@ -626,6 +659,10 @@ Outcome App::route(const Request& request, const Target& target) {
     return r;
   }
   if (s.size() >= 2 && s[0] == "api" && s[1] == "v1") {
+    if (s.size() == 4 && s[2] == "glsl" && s[3] == "trace.glsl") {
+      if (!read) return not_allowed("GET, HEAD");
+      return trace_glsl(request);
+    }
     if (s.size() == 3 && s[2] == "images") {
       if (method != http::verb::post) return not_allowed("POST");
       return upload_image(request);
@@ -1101,7 +1138,13 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     return finish_json(body);
   }
 
-  if (rest.size() == 1 && rest[0] == "render.png") return render(request, loaded, target);
+  if (rest.size() == 1 && rest[0] == "render.png") {
+    return render(request, loaded, target, PictureProduct::png);
+  }
+  if (rest.size() == 1 && rest[0] == "depth.bin") {
+    return render(request, loaded, target, PictureProduct::depth);
+  }
+  if (rest.size() == 1 && rest[0] == "trace.json") return trace_bundle(request, loaded, pinned);
 
   // Tiles and meshes: /tiles/{z}/{x}/{y}.{png,tif}, /mesh/{z}/{x}/{y}.{terrain,glb,drc}
   if (rest.size() != 4 || (rest[0] != "tiles" && rest[0] != "mesh")) {
@@ -1187,7 +1230,8 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   return deferred;
 }
 
-Outcome App::render(const Request& request, const LoadedVersion& loaded, const Target& target) {
+Outcome App::render(const Request& request, const LoadedVersion& loaded, const Target& target,
+                    PictureProduct product) {
   auto bad = [&](const char* pointer, const std::string& detail) -> Outcome {
     return problem(request, http::status::bad_request, "Bad picture request", detail, pointer);
   };
@@ -1269,20 +1313,38 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
       }
     }
     if (!traced) picture = terrain::render(*source->terrain, area, camera, options);
+    Request shadow{http::verb::get, "/", version};
+    shadow.keep_alive(keep_alive);
+    const char* cache_control =
+        pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate";
+    if (product == PictureProduct::depth) {
+      // Ray distances as little-endian float32, row-major from the top-left pixel.
+      std::string bytes(picture.depth.size() * sizeof(float), '\0');
+      for (std::size_t i = 0; i < picture.depth.size(); ++i) {
+        const auto bits = std::bit_cast<std::uint32_t>(picture.depth[i]);
+        for (std::size_t k = 0; k < 4; ++k) {
+          bytes[4 * i + k] = static_cast<char>((bits >> (8 * k)) & 0xffu);
+        }
+      }
+      Response r =
+          make_response(shadow, http::status::ok, std::move(bytes), "application/octet-stream");
+      r.set(http::field::cache_control, cache_control);
+      r.set(http::field::etag, product_etag(r.body()));
+      r.set("X-Picture-Size", std::to_string(picture.width) + "x" + std::to_string(picture.height));
+      r.set("X-Terrain-Backend", produced);
+      return r;
+    }
     auto png = terrain::encode_png_rgb8(picture.width, picture.height, picture.rgb.data());
     metrics_.generation(
         "render", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
         traced ? "gpu" : (backend_ ? "cpu-fallback" : "cpu"));
-    Request shadow{http::verb::get, "/", version};
-    shadow.keep_alive(keep_alive);
     if (!png) {
       return problem(shadow, http::status::internal_server_error, "Encoding failed",
                      png.error().message);
     }
     Response r =
         make_response(shadow, http::status::ok, std::string(png->begin(), png->end()), "image/png");
-    r.set(http::field::cache_control,
-          pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate");
+    r.set(http::field::cache_control, cache_control);
     r.set(http::field::etag, product_etag(r.body()));
     r.set("X-Terrain-Backend", produced);
     return r;
@@ -1754,6 +1816,94 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
     cache_.insert(cache_key, cached);
     if (disk_cache_) disk_cache_->insert(cache_key, *cached);
     return product_response(reply, cached);
+  };
+  return deferred;
+}
+
+Response App::trace_glsl(const Request& request) const {
+  // The node functions, the interpreter and the tracer: the very text the server's compute
+  // shaders are built from, for the browser to put after its own texture-reading prelude.
+  static const std::string text =
+      std::string(gpu::shared_glsl()) + "\n" + std::string(gpu::trace_glsl());
+  static const std::string etag = product_etag(text);
+  if (etag_matches(request, etag)) {
+    Response r = make_response(request, http::status::not_modified, "", "text/plain");
+    r.set(http::field::etag, etag);
+    return r;
+  }
+  Response r = make_response(request, http::status::ok, text, "text/plain; charset=utf-8");
+  r.set(http::field::etag, etag);
+  r.set(http::field::cache_control, "public, max-age=60");
+  return r;
+}
+
+// GET …/trace.json: everything a browser needs to sphere-trace the scene itself, as
+// terrain::render and the GPU tracer do — the program, its pool as shaders read it, the
+// Lipschitz grid of local bounds, the traced domain and options, and a default camera. The grid
+// walks the program over the whole area, so the bundle is built on the generation pool once per
+// version and cached like a tile.
+Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, bool pinned) {
+  const std::string key = loaded.version.hash + "|trace.json";
+  const std::string cache_control =
+      pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate";
+  Request shadow{http::verb::get, "/", request.version()};
+  shadow.keep_alive(request.keep_alive());
+  for (const http::field f : {http::field::accept_encoding, http::field::if_none_match}) {
+    if (const auto it = request.find(f); it != request.end()) shadow.set(f, it->value());
+  }
+  auto respond = [shadow, cache_control](const CachedProduct& p) {
+    Response r = json_text_response(shadow, p.body, cache_control);
+    r.set("X-Terrain-Backend", p.backend);
+    return r;
+  };
+  if (auto hit = cache_.find(key)) return respond(*hit);
+  auto source = loaded.source;
+  const terrain::Box2 area = loaded.scene->area();
+  const std::string scene_id = loaded.version.scene_id;
+  const std::int64_t version = loaded.version.version;
+  Deferred deferred;
+  deferred.cost = static_cast<double>(source->terrain->code.size()) * 64.0 * 64.0 * 5.0;
+  deferred.work = [=, this]() -> Response {
+    const terrain::Program& program = *source->terrain;
+    terrain::Evaluator evaluator(program);
+    const terrain::LipschitzGrid grid(evaluator, area);
+    const std::vector<float> bounds = grid.pack();
+    const std::vector<float> pool = gpu::prepare_pool(program);
+    const terrain::TraceDomain domain = terrain::trace_domain(program, area);
+    const terrain::TraceOptions defaults;
+    const float span = std::max(area.size().x, area.size().y);
+    const terrain::Camera camera = terrain::default_camera(program, area, 640, 400);
+    const terrain::Vec3 sun = terrain::sun_direction();
+    const auto [fields, frames] = gpu::shader_stacks(program);
+    const json body{
+        {"scene_id", scene_id},
+        {"version", version},
+        {"code",
+         terrain::base64(program.code.data(), program.code.size() * sizeof(terrain::Instruction))},
+        {"pool", terrain::base64(pool.data(), pool.size() * sizeof(float))},
+        {"bounds", terrain::base64(bounds.data(), bounds.size() * sizeof(float))},
+        {"stacks", {{"fields", fields}, {"frames", frames}}},
+        {"setup",
+         {{"area", {domain.area.lo.x, domain.area.lo.y, domain.area.hi.x, domain.area.hi.y}},
+          {"elevation", {domain.elevation.lo, domain.elevation.hi}},
+          {"epsilon", defaults.epsilon},
+          {"max_steps", defaults.max_steps},
+          {"initial_step", defaults.initial_step},
+          {"t_max", std::min(defaults.t_max, 4.0f * span + 1e4f)},
+          {"water_level", terrain::RenderOptions{}.water_level},
+          {"span", span},
+          {"sun", {sun.x, sun.y, sun.z}}}},
+        {"camera",
+         {{"eye", {camera.position.x, camera.position.y, camera.position.z}},
+          {"target", {camera.target.x, camera.target.y, camera.target.z}},
+          {"fov", camera.vertical_fov_degrees}}}};
+    auto cached = std::make_shared<CachedProduct>();
+    cached->body = body.dump();
+    cached->media_type = "application/json";
+    cached->etag = product_etag(cached->body);
+    cached->backend = "cpu";
+    cache_.insert(key, cached);
+    return respond(*cached);
   };
   return deferred;
 }

@@ -299,11 +299,12 @@ struct HttpServer::State {
       const bool keep_alive = response.keep_alive() && !stopping;
       response.keep_alive(keep_alive);
       const int status = static_cast<int>(response.result_int());
-      co_await write(*stream, deadline, response);
+      // Counted before the write: a client that has its answer finds it in /metrics.
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       const std::string_view route = App::route_label(request);
       app.metrics().request(route, status, seconds);
+      co_await write(*stream, deadline, response);
       if (log_enabled(LogLevel::info)) {
         log(LogLevel::info, "request",
             {{"method", std::string(request.method_string())},

@@ -170,14 +170,6 @@ class Compiler {
   int depth_ = 0, max_depth_ = 0, frames_ = 0, max_frames_ = 0;
 };
 
-std::string base64(const void* data, std::size_t size) {
-  std::string out(4 * ((size + 2) / 3) + 1, '\0');
-  const int n = EVP_EncodeBlock(reinterpret_cast<unsigned char*>(out.data()),
-                                static_cast<const unsigned char*>(data), static_cast<int>(size));
-  out.resize(static_cast<std::size_t>(n));
-  return out;
-}
-
 nlohmann::json bounds_json(const NodeBounds& b) {
   return {{"support", {b.support.lo.x, b.support.lo.y, b.support.hi.x, b.support.hi.y}},
           {"elevation", {b.elevation.lo, b.elevation.hi}},
@@ -186,6 +178,14 @@ nlohmann::json bounds_json(const NodeBounds& b) {
 }
 
 }  // namespace
+
+std::string base64(const void* data, std::size_t size) {
+  std::string out(4 * ((size + 2) / 3) + 1, '\0');
+  const int n = EVP_EncodeBlock(reinterpret_cast<unsigned char*>(out.data()),
+                                static_cast<const unsigned char*>(data), static_cast<int>(size));
+  out.resize(static_cast<std::size_t>(n));
+  return out;
+}
 
 Result<Program> compile(const Scene& scene, const CompileOptions& options) {
   Compiler compiler(options);

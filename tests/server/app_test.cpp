@@ -81,7 +81,9 @@ TEST_F(AppTest, EveryDocumentedPathIsRouted) {
     if (planet && target.find("/mesh/") != std::string::npos) {
       target += target.find('?') == std::string::npos ? "?grid=17" : "&grid=17";
     }
-    if (target.ends_with("/render.png")) target += "?width=64&height=48";
+    if (target.ends_with("/render.png") || target.ends_with("/depth.bin")) {
+      target += "?width=64&height=48";
+    }
     const Response r = get(target);
     EXPECT_EQ(r.result(), http::status::ok) << target << ": " << r.body().view();
     ++checked;

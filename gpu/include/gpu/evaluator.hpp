@@ -8,6 +8,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "gpu/egl_context.hpp"
@@ -92,6 +93,9 @@ std::string_view shared_glsl();
 /// The sphere tracer (trace.glsl), concatenated after shared_glsl(); besides the prelude's
 /// program access it needs fetch_bounds(i) over terrain::LipschitzGrid::pack().
 std::string_view trace_glsl();
+/// The field- and frame-stack sizes (TERRAIN_MAX_FIELDS, TERRAIN_MAX_FRAMES) that a shader
+/// interpreting `program` declares.
+std::pair<int, int> shader_stacks(const terrain::Program& program);
 /// The complete compute shader for the given stack sizes (for tests and diagnostics).
 std::string compute_shader_source(int max_fields, int max_frames);
 /// The complete tracing compute shader for the given stack sizes.

@@ -71,7 +71,12 @@ class App {
   Response upload_image(const Request& request);
   Outcome scene_product(const Request& request, const std::string& ref,
                         const std::vector<std::string>& rest, const Target& target);
-  Outcome render(const Request& request, const LoadedVersion& loaded, const Target& target);
+  /// What a picture request returns: the shaded picture, or its ray distances.
+  enum class PictureProduct { png, depth };
+  Outcome render(const Request& request, const LoadedVersion& loaded, const Target& target,
+                 PictureProduct product);
+  Outcome trace_bundle(const Request& request, const LoadedVersion& loaded, bool pinned);
+  Response trace_glsl(const Request& request) const;
   Response authorize(const Request& request) const;  // result() == ok when allowed
 
   Response list_planets(const Request& request);

@@ -62,4 +62,7 @@ Result<Program> compile(const Scene& scene, const CompileOptions& options = {});
 /// Compiles the scene's water layer (Scene::water, which must be present).
 Result<Program> compile_water(const Scene& scene, const CompileOptions& options = {});
 
+/// Standard base64 (RFC 4648, padded) of `size` bytes: how JSON carries binary buffers.
+std::string base64(const void* data, std::size_t size);
+
 }  // namespace terrain

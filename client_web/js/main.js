@@ -1,0 +1,223 @@
+// The browser viewer: picks a scene, fetches its compiled program and sphere-traces it locally
+// (scene_view.js), with orbit/fly controls, a frame-time readout and the view in the URL.
+import { ApiError, fetchJson, fetchText } from './api.js';
+import { Camera, readViewFromHash, writeViewToHash } from './camera.js';
+import { Controls } from './controls.js';
+import { SceneView } from './scene_view.js';
+
+const canvas = document.getElementById('view');
+const picker = document.getElementById('scene-picker');
+const modeButton = document.getElementById('mode');
+const resetButton = document.getElementById('reset');
+const shareLink = document.getElementById('share');
+const frameTime = document.getElementById('frame-time');
+const messageBox = document.getElementById('message');
+
+const state = {
+  gl: null,
+  glsl: null,      // the shared GLSL, fetched once
+  sceneId: null,
+  bundle: null,    // the scene's trace bundle (program, bounds, setup, default camera)
+  view: null,      // SceneView
+  camera: null,
+  controls: null,
+  dirty: true,
+  moving: false,   // previews at reduced resolution while the camera moves
+  lastMove: 0,
+  resolution: 0.5, // fraction of device pixels a preview traces, adapted to frame time
+  band: null,      // the full-resolution view being drawn: next row, rows per band, time so far
+  bandRows: 0,
+  loading: null,
+  error: null,
+};
+
+// Tests and scripts: whether the viewer is idle (a full-resolution frame of the current view is
+// on the canvas), and the state behind it.
+window.terrainViewer = {
+  state,
+  idle: false,
+  drawn: 0,
+  /// The current view traced at the canvas size: { width, height, rgba, depth, ms }.
+  capture: () => state.view.capture(state.camera, canvas.width, canvas.height),
+};
+
+function showMessage(text) {
+  messageBox.textContent = text;
+  messageBox.hidden = !text;
+  state.error = text || null;
+}
+
+function viewUrl() {
+  return writeViewToHash({ scene: state.sceneId, camera: state.camera, mode: state.controls?.mode });
+}
+
+let hashTimer = 0;
+function updateHash() {
+  clearTimeout(hashTimer);
+  hashTimer = setTimeout(() => {
+    const hash = viewUrl();
+    if (location.hash !== hash) history.replaceState(null, '', hash);
+    shareLink.href = hash;
+  }, 250);
+}
+
+function markDirty(reason) {
+  state.dirty = true;
+  window.terrainViewer.idle = false;
+  if (reason === 'camera' || reason === 'keys') {
+    state.moving = true;
+    state.lastMove = performance.now();
+  }
+  if (reason === 'mode') modeButton.textContent = state.controls.mode === 'fly' ? 'Fly' : 'Orbit';
+  updateHash();
+}
+
+async function loadScene(id, camera) {
+  const token = Symbol(id);
+  state.loading = token;
+  showMessage('');
+  try {
+    const bundle = await fetchJson(`/api/v1/scenes/${encodeURIComponent(id)}/trace.json`);
+    if (state.loading !== token) return;
+    const view = SceneView.create(state.gl, state.glsl, bundle);
+    state.view?.dispose();
+    state.view = view;
+    state.bundle = bundle;
+    state.sceneId = id;
+    state.camera = camera ?? new Camera(bundle.camera);
+    state.controls.setCamera(state.camera);
+    picker.value = id;
+    markDirty('scene');
+  } catch (e) {
+    if (state.loading !== token) return;
+    const why = e instanceof ApiError && e.status === 404 ? `There is no scene "${id}".` :
+      e instanceof ApiError && e.status >= 400 && e.status < 500 ? `The scene "${id}" is invalid: ${e.message}` :
+      e.message;
+    showMessage(why);
+  } finally {
+    if (state.loading === token) state.loading = null;
+  }
+}
+
+function resize() {
+  const dpr = Math.min(window.devicePixelRatio || 1, 2);
+  const width = Math.max(1, Math.round(canvas.clientWidth * dpr));
+  const height = Math.max(1, Math.round(canvas.clientHeight * dpr));
+  if (canvas.width !== width || canvas.height !== height) {
+    canvas.width = width;
+    canvas.height = height;
+    state.dirty = true;
+  }
+}
+
+// Drawing: while the camera moves, whole previews at a resolution that keeps about 30 frames a
+// second; once it rests, the full-resolution view in bands of rows sized to about 30 ms each.
+const FRAME_BUDGET_MS = 30;
+let previous = performance.now();
+function frame(now) {
+  requestAnimationFrame(frame);
+  const dt = Math.min((now - previous) / 1000, 0.1);
+  previous = now;
+  if (!state.view || !state.camera) return;
+  if (state.controls.update(dt)) markDirty('keys');
+  resize();
+  if (state.moving && now - state.lastMove > 200) state.moving = false;
+  const { width, height } = canvas;
+  if (state.dirty) {
+    state.dirty = false;
+    state.band = null;
+    const fraction = state.moving ? state.resolution : Math.min(state.resolution, 0.25);
+    const ms = state.view.preview(state.camera, width, height, fraction);
+    if (state.moving) {
+      state.resolution = Math.min(1, Math.max(0.1, state.resolution * Math.sqrt(FRAME_BUDGET_MS / Math.max(ms, 1))));
+    }
+    frameTime.textContent = `${ms.toFixed(1)} ms at ${Math.round(fraction * 100)}%`;
+    if (!state.moving) state.band = { top: 0, rows: state.bandRows || 8, ms: 0, camera: state.camera.clone() };
+    return;
+  }
+  const band = state.band;
+  if (!band || state.moving) return;
+  const bottom = Math.min(height, band.top + band.rows);
+  const ms = state.view.drawBand(band.camera, width, height, band.top, bottom);
+  band.ms += ms;
+  // Rows per band follow the measured cost per row.
+  state.bandRows = band.rows = Math.max(1, Math.min(height, Math.round((band.rows * FRAME_BUDGET_MS) / Math.max(ms, 0.5))));
+  band.top = bottom;
+  if (band.top < height) {
+    frameTime.textContent = `refining ${Math.round((100 * band.top) / height)}%`;
+    return;
+  }
+  state.band = null;
+  state.view.fullFrameMs = band.ms;
+  frameTime.textContent = `${band.ms.toFixed(0)} ms per full frame (${width}×${height})`;
+  window.terrainViewer.idle = true;
+  window.terrainViewer.drawn += 1;
+}
+
+async function start() {
+  const gl = canvas.getContext('webgl2', { antialias: false, preserveDrawingBuffer: true });
+  if (!gl) {
+    showMessage('This browser has no WebGL2, which the viewer needs to draw terrain. ' +
+      'Try a current Firefox, Chrome, Edge or Safari, with hardware acceleration on.');
+    return;
+  }
+  state.gl = gl;
+  canvas.addEventListener('webglcontextlost', (e) => {
+    e.preventDefault();
+    showMessage('The graphics context was lost; reload the page to continue.');
+  });
+  let scenes;
+  try {
+    [scenes, state.glsl] = await Promise.all([
+      fetchJson('/api/v1/scenes'),
+      fetchText('/api/v1/glsl/trace.glsl'),
+    ]);
+  } catch (e) {
+    showMessage(e.message);
+    return;
+  }
+  const list = Array.isArray(scenes.scenes) ? scenes.scenes : [];
+  for (const s of list) {
+    const option = document.createElement('option');
+    option.value = s.id;
+    option.textContent = s.name ? `${s.name} (${s.id})` : s.id;
+    picker.append(option);
+  }
+  const view = readViewFromHash(location.hash);
+  state.controls = new Controls(canvas, null, {
+    onChange: markDirty,
+    scaleHint: () => {
+      const a = state.bundle?.setup?.area;
+      return a ? Math.max(a[2] - a[0], a[3] - a[1]) : 1000;
+    },
+  });
+  if (view.mode === 'fly') state.controls.mode = 'fly';
+  modeButton.textContent = state.controls.mode === 'fly' ? 'Fly' : 'Orbit';
+  picker.addEventListener('change', () => loadScene(picker.value));
+  modeButton.addEventListener('click', () => state.controls.setMode(state.controls.mode === 'fly' ? 'orbit' : 'fly'));
+  resetButton.addEventListener('click', () => {
+    if (!state.bundle) return;
+    state.camera = new Camera(state.bundle.camera);
+    state.controls.setCamera(state.camera);
+    markDirty('scene');
+  });
+  window.addEventListener('hashchange', () => {
+    const next = readViewFromHash(location.hash);
+    if (next.scene && next.scene !== state.sceneId) {
+      loadScene(next.scene, next.camera);
+    } else if (next.camera && !next.camera.equals(state.camera)) {
+      state.camera = next.camera;
+      state.controls.setCamera(state.camera);
+      markDirty('scene');
+    }
+  });
+  if (list.length === 0) {
+    showMessage('The server has no scenes yet.');
+    return;
+  }
+  const wanted = view.scene ?? (list.find((s) => s.id === 'winding-road') ?? list[0]).id;
+  requestAnimationFrame(frame);
+  await loadScene(wanted, view.camera);
+}
+
+start();

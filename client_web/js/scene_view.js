@@ -1,0 +1,286 @@
+// Sphere tracing a scene's compiled program in a fragment shader. The program, its parameter
+// pool and the Lipschitz grid arrive in a trace bundle (GET /api/v1/scenes/{ref}/trace.json) and
+// live in textures; the node functions, the interpreter and the tracer itself are the server's
+// own GLSL (GET /api/v1/glsl/trace.glsl), after a prelude that reads those textures.
+import { decodeBase64 } from './api.js';
+import { compileProgram, dataTexture } from './gl.js';
+
+const TEXTURE_WIDTH = 1024;  // texels per row of every data texture (a power of two: shifts)
+
+const VERTEX = `#version 300 es
+void main() {
+  // One triangle that covers the viewport.
+  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}`;
+
+function prelude({ maxFields, maxFrames }) {
+  return `#version 300 es
+precision highp float;
+precision highp int;
+precision highp usampler2D;
+precision highp sampler2D;
+#define TERRAIN_PRECISE
+#define TERRAIN_MAX_FIELDS ${maxFields}
+#define TERRAIN_MAX_FRAMES ${maxFrames}
+uniform usampler2D u_code;    // one instruction (uvec4) per texel
+uniform usampler2D u_pool;    // pool words as bits
+uniform sampler2D u_bounds;   // terrain::LipschitzGrid::pack()
+uniform uint u_program_size;
+
+ivec2 texel_of(uint i) { return ivec2(int(i & ${TEXTURE_WIDTH - 1}u), int(i >> ${Math.log2(TEXTURE_WIDTH)}u)); }
+uvec4 fetch_code(uint pc) { return texelFetch(u_code, texel_of(pc), 0); }
+uint fetch_pool_uint(uint i) { return texelFetch(u_pool, texel_of(i), 0).r; }
+float fetch_pool(uint i) { return uintBitsToFloat(fetch_pool_uint(i)); }
+uint program_size() { return u_program_size; }
+float fetch_bounds(uint i) { return texelFetch(u_bounds, texel_of(i), 0).r; }
+`;
+}
+
+const MAIN = `
+uniform vec3 u_eye;
+uniform vec3 u_forward;
+uniform vec3 u_right;
+uniform vec3 u_up;
+uniform float u_tan_half;
+uniform float u_aspect;
+uniform vec2 u_size;        // the traced picture, pixels
+uniform vec4 u_area;
+uniform vec2 u_elevation;
+uniform float u_epsilon;
+uniform int u_max_steps;
+uniform float u_initial_step;
+uniform float u_lod_per_metre;
+uniform float u_t_max;
+uniform float u_water_level;
+uniform float u_span;
+uniform vec3 u_sun;
+
+layout(location = 0) out vec4 out_colour;
+layout(location = 1) out vec4 out_depth;
+
+void main() {
+  TraceCamera camera = TraceCamera(u_eye, u_forward, u_right, u_up, u_tan_half, u_aspect, u_size);
+  TraceSetup setup = TraceSetup(u_area.xy, u_area.zw, u_elevation.x, u_elevation.y, u_epsilon,
+                                u_max_steps, u_initial_step, u_lod_per_metre, u_t_max, true,
+                                u_water_level, u_span, u_sun);
+  // Pixel centres with y = 0 at the top, as terrain::Camera counts them.
+  vec2 pixel = vec2(gl_FragCoord.x, u_size.y - gl_FragCoord.y);
+  TracePixel result = trace_pixel(camera, setup, pixel);
+  out_colour = vec4(vec3(trace_to_bytes(result.colour)) / 255.0, 1.0);
+  out_depth = vec4(result.depth, float(result.steps), 0.0, 1.0);
+}
+`;
+
+/// Sample spacing per metre of distance that matches one pixel (terrain::pixel_footprint).
+function pixelFootprint(tanHalf, height) {
+  return Math.fround((2 * tanHalf) / height);
+}
+
+export class SceneView {
+  static create(gl, glsl, bundle) {
+    if (!gl.getExtension('EXT_color_buffer_float')) {
+      throw new Error('This browser cannot render to float textures (EXT_color_buffer_float), which the viewer needs.');
+    }
+    const source = prelude({ maxFields: bundle.stacks.fields, maxFrames: bundle.stacks.frames }) + glsl + MAIN;
+    const program = compileProgram(gl, VERTEX, source);
+    return new SceneView(gl, program, bundle);
+  }
+
+  constructor(gl, program, bundle) {
+    this.gl = gl;
+    this.program = program;
+    this.bundle = bundle;
+    const code = new Uint32Array(decodeBase64(bundle.code).buffer);
+    const pool = new Uint32Array(decodeBase64(bundle.pool).buffer);
+    const bounds = new Float32Array(decodeBase64(bundle.bounds).buffer);
+    this.programSize = code.length / 4;
+    this.textures = [
+      ['u_code', dataTexture(gl, code, { width: TEXTURE_WIDTH, format: 'rgba32ui' })],
+      ['u_pool', dataTexture(gl, pool, { width: TEXTURE_WIDTH, format: 'r32ui' })],
+      ['u_bounds', dataTexture(gl, bounds, { width: TEXTURE_WIDTH, format: 'r32f' })],
+    ];
+    this.uniforms = {};
+    const count = gl.getProgramParameter(program, gl.ACTIVE_UNIFORMS);
+    for (let i = 0; i < count; ++i) {
+      const name = gl.getActiveUniform(program, i).name;
+      this.uniforms[name] = gl.getUniformLocation(program, name);
+    }
+    this.vao = gl.createVertexArray();
+    this.targets = {};  // 'preview' (reduced resolution) and 'full'
+    this.fullFrameMs = 0;  // the viewer's sum of band times for the last complete view
+  }
+
+  dispose() {
+    const gl = this.gl;
+    for (const [, t] of this.textures) gl.deleteTexture(t);
+    this.releaseTargets();
+    gl.deleteVertexArray(this.vao);
+    gl.deleteProgram(this.program);
+  }
+
+  releaseTargets() {
+    const gl = this.gl;
+    for (const target of Object.values(this.targets)) {
+      gl.deleteFramebuffer(target.framebuffer);
+      gl.deleteTexture(target.colour);
+      gl.deleteTexture(target.depth);
+    }
+    this.targets = {};
+  }
+
+  // An offscreen target: the RGBA8 picture and the ray distances (in an RGBA32F texture).
+  ensureTarget(name, width, height) {
+    const existing = this.targets[name];
+    if (existing && existing.width === width && existing.height === height) return existing;
+    const gl = this.gl;
+    if (existing) {
+      gl.deleteFramebuffer(existing.framebuffer);
+      gl.deleteTexture(existing.colour);
+      gl.deleteTexture(existing.depth);
+    }
+    const texture = (internal, format, type) => {
+      const t = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, t);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      gl.texImage2D(gl.TEXTURE_2D, 0, internal, width, height, 0, format, type, null);
+      return t;
+    };
+    const colour = texture(gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE);
+    const depth = texture(gl.RGBA32F, gl.RGBA, gl.FLOAT);
+    const framebuffer = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, framebuffer);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, colour, 0);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT1, gl.TEXTURE_2D, depth, 0);
+    gl.drawBuffers([gl.COLOR_ATTACHMENT0, gl.COLOR_ATTACHMENT1]);
+    const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`offscreen target incomplete (0x${status.toString(16)})`);
+    const target = { framebuffer, colour, depth, width, height, camera: null, complete: null };
+    this.targets[name] = target;
+    return target;
+  }
+
+  /// Traces the whole view at `fraction` of the canvas resolution and shows it stretched over
+  /// the canvas (while the camera moves); returns the time taken in milliseconds, GPU work
+  /// included (it waits for a pixel of the result).
+  preview(camera, width, height, fraction) {
+    const w = Math.max(1, Math.round(width * fraction));
+    const h = Math.max(1, Math.round(height * fraction));
+    const start = performance.now();
+    const target = this.ensureTarget('preview', w, h);
+    target.complete = null;
+    this.trace(target, camera, 0, h);
+    this.show(target, 0, h, width, height);
+    return performance.now() - start;
+  }
+
+  /// Traces rows [top, bottom) of the full-resolution view (rows counted from the top) and shows
+  /// them; a slow GPU thus never runs one long draw (browsers reset a GPU stuck for seconds).
+  /// Returns the time taken in milliseconds. Once every row of a view is traced, capture() reads
+  /// it without tracing again.
+  drawBand(camera, width, height, top, bottom) {
+    const start = performance.now();
+    const target = this.ensureTarget('full', width, height);
+    if (top === 0) {
+      target.complete = null;
+      target.camera = camera.clone();
+    }
+    this.trace(target, camera, top, bottom);
+    this.show(target, top, bottom, width, height);
+    if (bottom >= height) target.complete = target.camera;
+    return performance.now() - start;
+  }
+
+  // Copies rows [top, bottom) of a target onto the canvas (scaled to width × height).
+  show(target, top, bottom, width, height) {
+    const gl = this.gl;
+    const sy = height / target.height;
+    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, target.framebuffer);
+    gl.readBuffer(gl.COLOR_ATTACHMENT0);
+    gl.bindFramebuffer(gl.DRAW_FRAMEBUFFER, null);
+    gl.blitFramebuffer(0, target.height - bottom, target.width, target.height - top,
+      0, Math.round(height - bottom * sy), width, Math.round(height - top * sy),
+      gl.COLOR_BUFFER_BIT, target.width === width ? gl.NEAREST : gl.LINEAR);
+    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, null);
+    const probe = new Uint8Array(4);
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, probe);  // waits for the GPU
+  }
+
+  // Traces rows [top, bottom) of `target` for `camera`.
+  trace(target, camera, top, bottom) {
+    const gl = this.gl;
+    const { width, height } = target;
+    const { forward, right, up, tanHalf } = camera.basis();
+    const b = this.bundle.setup;
+    const u = this.uniforms;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, target.framebuffer);
+    gl.viewport(0, 0, width, height);
+    gl.enable(gl.SCISSOR_TEST);
+    gl.scissor(0, height - bottom, width, bottom - top);
+    gl.useProgram(this.program);
+    this.textures.forEach(([name, texture], unit) => {
+      gl.activeTexture(gl.TEXTURE0 + unit);
+      gl.bindTexture(gl.TEXTURE_2D, texture);
+      gl.uniform1i(u[name], unit);
+    });
+    gl.uniform1ui(u.u_program_size, this.programSize);
+    gl.uniform3fv(u.u_eye, camera.eye);
+    gl.uniform3fv(u.u_forward, forward);
+    gl.uniform3fv(u.u_right, right);
+    gl.uniform3fv(u.u_up, up);
+    gl.uniform1f(u.u_tan_half, tanHalf);
+    gl.uniform1f(u.u_aspect, Math.fround(width / height));
+    gl.uniform2f(u.u_size, width, height);
+    gl.uniform4fv(u.u_area, b.area);
+    gl.uniform2fv(u.u_elevation, b.elevation);
+    gl.uniform1f(u.u_epsilon, b.epsilon);
+    gl.uniform1i(u.u_max_steps, b.max_steps);
+    gl.uniform1f(u.u_initial_step, b.initial_step);
+    gl.uniform1f(u.u_lod_per_metre, pixelFootprint(tanHalf, height));
+    gl.uniform1f(u.u_t_max, b.t_max);
+    gl.uniform1f(u.u_water_level, b.water_level);
+    gl.uniform1f(u.u_span, b.span);
+    gl.uniform3fv(u.u_sun, b.sun);
+    gl.bindVertexArray(this.vao);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    gl.bindVertexArray(null);
+    gl.disable(gl.SCISSOR_TEST);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+  }
+
+  /// The picture (RGBA, top row first) and ray distances (−1 where a ray missed) of a view at
+  /// `width` × `height`, for tests and screenshots.
+  capture(camera, width, height) {
+    const gl = this.gl;
+    const drawn = this.targets.full;
+    const ready = drawn && drawn.width === width && drawn.height === height && drawn.complete?.equals(camera);
+    const start = performance.now();
+    const target = ready ? drawn : this.ensureTarget('full', width, height);
+    if (!ready) {
+      target.complete = null;
+      this.trace(target, camera, 0, height);
+      target.camera = target.complete = camera.clone();
+    }
+    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, target.framebuffer);
+    gl.readBuffer(gl.COLOR_ATTACHMENT0);
+    const bottomUp = new Uint8Array(width * height * 4);
+    gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, bottomUp);
+    const ms = ready ? this.fullFrameMs : performance.now() - start;
+    gl.readBuffer(gl.COLOR_ATTACHMENT1);
+    const distances = new Float32Array(width * height * 4);
+    gl.readPixels(0, 0, width, height, gl.RGBA, gl.FLOAT, distances);
+    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, null);
+    const rgba = new Array(width * height * 4);
+    const depth = new Array(width * height);
+    for (let y = 0; y < height; ++y) {
+      const from = (height - 1 - y) * width;
+      for (let x = 0; x < width; ++x) {
+        for (let c = 0; c < 4; ++c) rgba[(y * width + x) * 4 + c] = bottomUp[(from + x) * 4 + c];
+        depth[y * width + x] = distances[(from + x) * 4];
+      }
+    }
+    return { width, height, rgba, depth, ms };
+  }
+}
