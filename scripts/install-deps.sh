@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages the project builds and tests with. Idempotent: it asks apt only for
-# packages that are missing, so a second run costs a dpkg query.
+# packages that are missing, so a second run costs a dpkg query. --tests adds what only the test
+# suite needs (the browser the viewer's tests drive).
 set -euo pipefail
 
 packages=(
@@ -11,8 +12,8 @@ packages=(
   libboost1.81-dev libtomlplusplus-dev libsqlite3-dev
   gdal-bin nodejs clang libclang-rt-14-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
-  chromium
 )
+[ "${1:-}" = "--tests" ] && packages+=(chromium)
 
 missing=()
 for p in "${packages[@]}"; do

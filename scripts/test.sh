@@ -4,7 +4,7 @@
 # TERRAIN_TEST_PRESET=asan (say) runs the suite in another preset and skips the extra stages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/install-deps.sh
+scripts/install-deps.sh --tests
 preset="${TERRAIN_TEST_PRESET:-dev}"
 scripts/build.sh "$preset"
 ctest --preset "$preset"
