@@ -1,9 +1,12 @@
 // The browser viewer: picks a scene, fetches its compiled program and sphere-traces it locally
-// (scene_view.js), with orbit/fly controls, a frame-time readout and the view in the URL.
+// (scene_view.js), with orbit/fly controls, a frame-time readout and the view in the URL; or
+// picks a planet and streams its quantized-mesh tiles (planet_view.js) under a globe camera.
 import { ApiError, fetchJson, fetchText } from './api.js';
 import { Camera, readViewFromHash, writeViewToHash } from './camera.js';
 import { Controls } from './controls.js';
 import { SceneView } from './scene_view.js';
+import { PlanetView } from './planet_view.js';
+import { GlobeCamera, GlobeControls, readPlanetHash, writePlanetHash } from './planet_camera.js';
 
 const canvas = document.getElementById('view');
 const picker = document.getElementById('scene-picker');
@@ -12,6 +15,11 @@ const resetButton = document.getElementById('reset');
 const shareLink = document.getElementById('share');
 const frameTime = document.getElementById('frame-time');
 const messageBox = document.getElementById('message');
+const helpLine = document.getElementById('help');
+const SCENE_HELP = helpLine.textContent;
+const PLANET_HELP = 'Drag to move the globe · right-drag or shift-drag to turn and tilt · wheel or pinch to zoom · ' +
+  'arrows / WASD move, Q E turn, R F tilt, + − zoom';
+const PLANET_PREFIX = 'planet:';  // picker values of planets
 
 const state = {
   gl: null,
@@ -29,6 +37,10 @@ const state = {
   bandRows: 0,
   loading: null,
   error: null,
+  // Planet mode, when state.planet is set: { id, view: PlanetView, camera: GlobeCamera,
+  // controls: GlobeControls }; the scene fields above are then empty.
+  planet: null,
+  planets: [],     // GET /api/v1/planets: the list and which id "default" stands for
 };
 
 // Tests and scripts: whether the viewer is idle (a full-resolution frame of the current view is
@@ -37,8 +49,11 @@ window.terrainViewer = {
   state,
   idle: false,
   drawn: 0,
-  /// The current view traced at the canvas size: { width, height, rgba, depth, ms }.
-  capture: () => state.view.capture(state.camera, canvas.width, canvas.height),
+  /// The current view traced (scene) or drawn (planet) at the canvas size:
+  /// { width, height, rgba, depth, ms }.
+  capture: () => (state.planet ?
+    state.planet.view.capture(state.planet.camera, canvas.width, canvas.height) :
+    state.view.capture(state.camera, canvas.width, canvas.height)),
 };
 
 function showMessage(text) {
@@ -48,6 +63,7 @@ function showMessage(text) {
 }
 
 function viewUrl() {
+  if (state.planet) return writePlanetHash(state.planet.id, state.planet.camera);
   return writeViewToHash({ scene: state.sceneId, camera: state.camera, mode: state.controls?.mode });
 }
 
@@ -68,7 +84,7 @@ function markDirty(reason) {
     state.moving = true;
     state.lastMove = performance.now();
   }
-  if (reason === 'mode') modeButton.textContent = state.controls.mode === 'fly' ? 'Fly' : 'Orbit';
+  if (reason === 'mode' && state.controls) modeButton.textContent = state.controls.mode === 'fly' ? 'Fly' : 'Orbit';
   updateHash();
 }
 
@@ -80,6 +96,7 @@ async function loadScene(id, camera) {
     const bundle = await fetchJson(`/api/v1/scenes/${encodeURIComponent(id)}/trace.json`);
     if (state.loading !== token) return;
     const view = SceneView.create(state.gl, state.glsl, bundle);
+    leavePlanetMode();
     state.view?.dispose();
     state.view = view;
     state.bundle = bundle;
@@ -97,6 +114,112 @@ async function loadScene(id, camera) {
   } finally {
     if (state.loading === token) state.loading = null;
   }
+}
+
+// Scene mode's orbit/fly controls; planet mode replaces them with GlobeControls (both listen to
+// the same canvas, so only one set exists at a time).
+function makeSceneControls(mode = 'orbit') {
+  const controls = new Controls(canvas, state.camera, {
+    onChange: markDirty,
+    scaleHint: () => {
+      const a = state.bundle?.setup?.area;
+      return a ? Math.max(a[2] - a[0], a[3] - a[1]) : 1000;
+    },
+  });
+  if (mode === 'fly') controls.mode = 'fly';
+  return controls;
+}
+
+function leavePlanetMode() {
+  if (!state.planet) return;
+  state.planet.controls.dispose();
+  state.planet.view.dispose();
+  state.planet = null;
+  modeButton.hidden = false;
+  helpLine.textContent = SCENE_HELP;
+  if (!state.controls) state.controls = makeSceneControls();
+}
+
+/// The view a planet opens with: the whole globe, from two radii above the ground.
+function defaultGlobeCamera(view) {
+  return new GlobeCamera({ lat: 15, lon: 20, alt: 2 * view.radius, heading: 0, tilt: 0 });
+}
+
+function pickerValueOfPlanet(id) {
+  const value = PLANET_PREFIX + id;
+  if (![...picker.options].some((o) => o.value === value)) {
+    const option = document.createElement('option');
+    option.value = value;
+    option.textContent = `planet ${id.slice(0, 12)}`;
+    (picker.querySelector('optgroup[label="Planets"]') ?? picker).append(option);
+  }
+  return value;
+}
+
+async function loadPlanet(id, camera) {
+  const token = Symbol(id);
+  state.loading = token;
+  showMessage('');
+  try {
+    const view = await PlanetView.open(state.gl, id);
+    if (state.loading !== token) {
+      view.dispose();
+      return;
+    }
+    leavePlanetMode();
+    state.view?.dispose();
+    state.view = null;
+    state.bundle = null;
+    state.sceneId = null;
+    state.camera = null;
+    state.controls?.dispose();
+    state.controls = null;
+    const planet = { id, view, camera: camera ?? defaultGlobeCamera(view), controls: null };
+    planet.controls = new GlobeControls(canvas, planet.camera, {
+      onChange: markDirty,
+      radius: view.radius,
+      ground: (c) => view.heightAt(c.lat, c.lon),
+    });
+    state.planet = planet;
+    picker.value = pickerValueOfPlanet(id);
+    modeButton.hidden = true;
+    helpLine.textContent = PLANET_HELP;
+    markDirty('scene');
+  } catch (e) {
+    if (state.loading !== token) return;
+    showMessage(e.message);
+  } finally {
+    if (state.loading === token) state.loading = null;
+  }
+}
+
+// Planet mode's frame: draws whenever the camera moved or a tile arrived. Every draw selects
+// the tiles, requests the missing ones and draws the best loaded stand-ins, so a frame is
+// cheap; the viewer is idle once a draw found every tile it needed.
+let tileError = null;
+function planetFrame(dt) {
+  const p = state.planet;
+  if (p.controls.update(dt)) markDirty('keys');
+  resize();
+  if (p.view.takeArrived()) {
+    state.dirty = true;
+    // Finer tiles may show ground above the camera: lift it.
+    if (p.controls.clamp()) updateHash();
+  }
+  if (!state.dirty) return;
+  state.dirty = false;
+  const s = p.view.draw(p.camera, canvas.width, canvas.height);
+  frameTime.textContent = `${s.ms.toFixed(1)} ms · ${s.tiles} tiles · ${Math.round(s.triangles / 1000)}k triangles` +
+    (s.complete ? '' : ` · loading ${s.loading}`);
+  if (p.view.error) {
+    tileError = p.view.error;
+    showMessage(tileError);
+  } else if (tileError && state.error === tileError) {
+    tileError = null;
+    showMessage('');
+  }
+  window.terrainViewer.idle = s.complete;
+  if (s.complete) window.terrainViewer.drawn += 1;
 }
 
 function resize() {
@@ -118,6 +241,10 @@ function frame(now) {
   requestAnimationFrame(frame);
   const dt = Math.min((now - previous) / 1000, 0.1);
   previous = now;
+  if (state.planet) {
+    planetFrame(dt);
+    return;
+  }
   if (!state.view || !state.camera) return;
   if (state.controls.update(dt)) markDirty('keys');
   resize();
@@ -166,11 +293,12 @@ async function start() {
     e.preventDefault();
     showMessage('The graphics context was lost; reload the page to continue.');
   });
-  let scenes;
+  let scenes, planets;
   try {
-    [scenes, state.glsl] = await Promise.all([
+    [scenes, state.glsl, planets] = await Promise.all([
       fetchJson('/api/v1/scenes'),
       fetchText('/api/v1/glsl/trace.glsl'),
+      fetchJson('/api/v1/planets'),
     ]);
   } catch (e) {
     showMessage(e.message);
@@ -183,25 +311,53 @@ async function start() {
     option.textContent = s.name ? `${s.name} (${s.id})` : s.id;
     picker.append(option);
   }
+  // Planets in their own group, "default" first (the others by id; the default planet's own id
+  // is the same planet, so it is not listed twice).
+  state.planets = Array.isArray(planets?.planets) ? planets.planets : [];
+  const group = document.createElement('optgroup');
+  group.label = 'Planets';
+  const planetOptions = [['default', 'default planet'],
+    ...state.planets.filter((p) => !p.default).map((p) => [p.id, `planet ${p.id.slice(0, 12)}`])];
+  for (const [id, label] of planetOptions) {
+    const option = document.createElement('option');
+    option.value = PLANET_PREFIX + id;
+    option.textContent = label;
+    group.append(option);
+  }
+  if (planets?.default) picker.append(group);
   const view = readViewFromHash(location.hash);
-  state.controls = new Controls(canvas, null, {
-    onChange: markDirty,
-    scaleHint: () => {
-      const a = state.bundle?.setup?.area;
-      return a ? Math.max(a[2] - a[0], a[3] - a[1]) : 1000;
-    },
-  });
-  if (view.mode === 'fly') state.controls.mode = 'fly';
+  const planetView = readPlanetHash(location.hash);
+  state.controls = makeSceneControls(view.mode);
   modeButton.textContent = state.controls.mode === 'fly' ? 'Fly' : 'Orbit';
-  picker.addEventListener('change', () => loadScene(picker.value));
-  modeButton.addEventListener('click', () => state.controls.setMode(state.controls.mode === 'fly' ? 'orbit' : 'fly'));
+  picker.addEventListener('change', () => {
+    if (picker.value.startsWith(PLANET_PREFIX)) loadPlanet(picker.value.slice(PLANET_PREFIX.length));
+    else loadScene(picker.value);
+  });
+  modeButton.addEventListener('click', () => state.controls?.setMode(state.controls.mode === 'fly' ? 'orbit' : 'fly'));
   resetButton.addEventListener('click', () => {
+    if (state.planet) {
+      state.planet.camera = defaultGlobeCamera(state.planet.view);
+      state.planet.controls.setCamera(state.planet.camera);
+      markDirty('scene');
+      return;
+    }
     if (!state.bundle) return;
     state.camera = new Camera(state.bundle.camera);
     state.controls.setCamera(state.camera);
     markDirty('scene');
   });
   window.addEventListener('hashchange', () => {
+    const planet = readPlanetHash(location.hash);
+    if (planet) {
+      if (!state.planet || planet.planet !== state.planet.id) {
+        loadPlanet(planet.planet, planet.camera);
+      } else if (planet.camera && !planet.camera.equals(state.planet.camera)) {
+        state.planet.camera = planet.camera;
+        state.planet.controls.setCamera(planet.camera);
+        markDirty('scene');
+      }
+      return;
+    }
     const next = readViewFromHash(location.hash);
     if (next.scene && next.scene !== state.sceneId) {
       loadScene(next.scene, next.camera);
@@ -211,6 +367,11 @@ async function start() {
       markDirty('scene');
     }
   });
+  if (planetView) {
+    requestAnimationFrame(frame);
+    await loadPlanet(planetView.planet, planetView.camera);
+    return;
+  }
   if (list.length === 0) {
     showMessage('The server has no scenes yet.');
     return;

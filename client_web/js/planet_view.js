@@ -1,0 +1,903 @@
+// Planet mode: streams a planet's quantized-mesh tiles (GET /api/v1/planets/{id}/mesh/{z}/{x}/{y}.terrain,
+// geographic EPSG:4326 TMS, two root tiles, y from the south) and draws them on the planet's
+// sphere or ellipsoid with WebGL2.
+//
+// - Level of detail: a quadtree from the two roots. A tile is refined while its screen-space
+//   error — its geometric error divided by the distance to its bounding sphere, times the
+//   viewport's pixels per unit of tangent — exceeds MAX_SCREEN_ERROR pixels.
+// - Culling: the tile's bounding sphere against the view frustum's side planes, and horizon
+//   culling with an occludee point computed as Cesium's EllipsoidalOccluder does, but against the
+//   planet's own surface (the header's volumes are for WGS84, which is not this planet).
+// - Precision: vertex positions are float32 relative to the tile's centre; the centre minus the
+//   eye is computed in double on the CPU and folded into each tile's matrix, so nothing large
+//   ever reaches float32 and the ground does not jitter near the surface of an Earth-sized planet.
+//   Depth is logarithmic (written per fragment), so one depth buffer holds orbit and ground views.
+// - Water: the terrain is drawn with its heights clamped at sea level, so the sea is a smooth
+//   surface at sea level, and coloured as water where the tile's water mask (a 256² texture per
+//   tile, or the one-byte all-land / all-water form) says so; rivers and lakes come from the mask
+//   too. Sea vertices are lit with the ellipsoid's up vector and a specular sun glint.
+// - No holes: a tile is drawn only once all its visible children can be drawn; until then it
+//   stands in for them. Tiles live in a bounded LRU cache and at most MAX_FETCHES are fetched at
+//   a time, coarser levels first.
+import { ApiError, fetchJson } from './api.js';
+import { compileProgram } from './gl.js';
+import { decodeQuantizedMesh } from './quantized_mesh.js';
+import { Geodesy } from './planet_camera.js';
+
+const MAX_SCREEN_ERROR = 2;     // pixels
+const MAX_FETCHES = 6;          // concurrent tile requests (a browser's per-host limit)
+const MAX_TILES = 300;          // decoded tiles kept (GPU buffers, water mask textures)
+const GRID_CELLS = 64;          // the server's default mesh grid: 65 samples a side
+const ATMOSPHERE = 80e3;        // metres: the sky and fog shell above the reference surface
+const FOG_SCALE = 700e3;        // metres of atmosphere that fog a surface by 1 − 1/e
+const RETRY_MS = 3000;          // a failed tile is asked for again after this
+const ACCEPT = 'application/vnd.quantized-mesh;extensions=octvertexnormals-watermask';
+const FLOATS_PER_VERTEX = 12;   // position 3, normal 3, up 3, uv 2, height 1
+
+const TERRAIN_VS = `#version 300 es
+precision highp float;
+layout(location = 0) in vec3 a_position;  // metres, relative to the tile's centre (ECEF axes)
+layout(location = 1) in vec3 a_normal;    // the surface normal (octvertexnormals)
+layout(location = 2) in vec3 a_up;        // the ellipsoid's up at the vertex
+layout(location = 3) in vec2 a_uv;        // 0..1 across the tile, v north
+layout(location = 4) in float a_height;   // metres above the reference surface, unclamped
+uniform mat4 u_mvp;        // projection × rotation × translate(centre − eye), the last in double
+uniform vec3 u_offset;     // centre − eye (float is plenty for fog and shading)
+out vec3 v_rel;            // position relative to the eye
+out vec3 v_normal;
+out vec3 v_up;
+out vec2 v_uv;
+out float v_height;
+out float v_w;
+void main() {
+  gl_Position = u_mvp * vec4(a_position, 1.0);
+  v_rel = u_offset + a_position;
+  v_normal = a_normal;
+  v_up = a_up;
+  v_uv = a_uv;
+  v_height = a_height;
+  v_w = 1.0 + gl_Position.w;
+}`;
+
+// Shared by the terrain and sky shaders: the length of a ray from the eye inside the
+// atmosphere's shell, up to `t_max`. The quadratic's constant (|C|² − r², with C the planet's
+// centre relative to the eye) comes from the CPU in double: in float it would cancel.
+const ATMOSPHERE_GLSL = `
+uniform vec3 u_centre;       // the planet's centre relative to the eye
+uniform float u_c_atmosphere; // |C|² − (R + atmosphere)²
+uniform float u_c_ground;     // |C|² − R²
+float shell_length(vec3 d, float t_max) {
+  float b = dot(d, u_centre);
+  float disc = b * b - u_c_atmosphere;
+  if (disc <= 0.0) return 0.0;
+  float s = sqrt(disc);
+  float t0 = max(b - s, 0.0);
+  float t1 = min(b + s, t_max);
+  return max(t1 - t0, 0.0);
+}
+// Distance along d to the reference sphere, or -1.
+float ground_hit(vec3 d) {
+  float b = dot(d, u_centre);
+  float disc = b * b - u_c_ground;
+  if (disc <= 0.0 || b <= 0.0) return -1.0;
+  return b - sqrt(disc);
+}
+const vec3 HAZE = vec3(0.80, 0.86, 0.92);    // scene mode's fog and horizon colour
+const vec3 ZENITH = vec3(0.33, 0.55, 0.85);  // scene mode's sky overhead
+const vec3 SPACE = vec3(0.01, 0.012, 0.03);
+`;
+
+const TERRAIN_FS = `#version 300 es
+precision highp float;
+in vec3 v_rel;
+in vec3 v_normal;
+in vec3 v_up;
+in vec2 v_uv;
+in float v_height;
+in float v_w;
+uniform sampler2D u_mask;     // the tile's water mask (R8), used when u_water < 0
+uniform float u_water;        // the one-byte mask's value 0..1, or -1
+uniform vec3 u_sun;
+uniform float u_sea_level;
+uniform float u_snow_line;    // metres: the material scale (scene mode's height 0..1)
+uniform float u_log_depth;    // 2 / log2(far + 1)
+uniform float u_fog_scale;
+${ATMOSPHERE_GLSL}
+layout(location = 0) out vec4 out_colour;
+layout(location = 1) out vec4 out_distance;
+
+void main() {
+  vec3 up = normalize(v_up);
+  vec3 n = normalize(v_normal);
+  float distance = length(v_rel);
+  vec3 view = v_rel / distance;
+  float water = u_water >= 0.0 ? u_water : texture(u_mask, vec2(v_uv.x, 1.0 - v_uv.y)).r;
+  if (v_height < u_sea_level - 1.0) water = 1.0;  // below the sea's surface, whatever the mask
+  // Land: scene mode's materials (grass to brown by height, rock by slope, snow high and flat)
+  // with a sand beach near sea level.
+  float slope = sqrt(1.0 - min(1.0, dot(n, up) * dot(n, up)));
+  float height = (v_height - u_sea_level) / u_snow_line;
+  vec3 ground = mix(vec3(0.32, 0.45, 0.20), vec3(0.55, 0.50, 0.38), clamp(height * 1.4, 0.0, 1.0));
+  ground = mix(ground, vec3(0.45, 0.42, 0.40), clamp((slope - 0.45) * 4.0, 0.0, 1.0));
+  if (height > 0.8 && slope < 0.6) ground = mix(ground, vec3(0.95, 0.96, 0.98), clamp((height - 0.8) * 5.0, 0.0, 1.0));
+  ground = mix(vec3(0.76, 0.70, 0.50), ground, smoothstep(2.0, 30.0, v_height - u_sea_level));
+  vec3 land = ground * (0.30 + 0.75 * max(0.0, dot(n, u_sun)));
+  // Water: deeper is darker; lit from the ellipsoid's up with a glint of the sun.
+  float depth = clamp((u_sea_level - v_height) / 3000.0, 0.0, 1.0);
+  vec3 sea = mix(vec3(0.12, 0.30, 0.45), vec3(0.05, 0.16, 0.32), depth);
+  float glint = pow(max(0.0, dot(reflect(-u_sun, up), -view)), 40.0);
+  sea = sea * (0.45 + 0.6 * max(0.0, dot(up, u_sun))) + vec3(0.5) * glint;
+  vec3 colour = mix(land, sea, clamp(water, 0.0, 1.0));
+  // Fog: the atmosphere between the eye and the surface.
+  float fog = 1.0 - exp(-shell_length(view, distance) / u_fog_scale);
+  out_colour = vec4(mix(colour, HAZE, fog), 1.0);
+  out_distance = vec4(distance, 0.0, 0.0, 1.0);
+  gl_FragDepth = log2(v_w) * u_log_depth * 0.5;
+}`;
+
+const SKY_VS = `#version 300 es
+void main() {
+  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+  gl_Position = vec4(p * 2.0 - 1.0, 1.0, 1.0);
+}`;
+
+const SKY_FS = `#version 300 es
+precision highp float;
+uniform vec3 u_forward;
+uniform vec3 u_right;
+uniform vec3 u_up;
+uniform vec2 u_tan;          // tan(fov/2)·aspect, tan(fov/2)
+uniform vec2 u_size;
+uniform float u_atmosphere;  // the shell's thickness, metres
+${ATMOSPHERE_GLSL}
+layout(location = 0) out vec4 out_colour;
+layout(location = 1) out vec4 out_distance;
+void main() {
+  vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
+  vec3 d = normalize(u_forward + u_right * ndc.x * u_tan.x + u_up * ndc.y * u_tan.y);
+  float ground = ground_hit(d);
+  float path = shell_length(d, ground > 0.0 ? ground : 1e30);
+  // Overhead the sky is deep blue, towards the horizon (long paths) hazy; from space the shell
+  // glows where the path through it is long: the limb.
+  vec3 sky = mix(ZENITH, HAZE, smoothstep(0.0, 1.0, (path - u_atmosphere) / (8.0 * u_atmosphere)));
+  float opacity = 1.0 - exp(-path / (0.5 * u_atmosphere));
+  vec3 colour = mix(SPACE, sky, opacity);
+  // Where the ray meets the planet but no tile is drawn yet: a dull sea colour, not sky.
+  if (ground > 0.0) colour = mix(vec3(0.10, 0.20, 0.30), HAZE, 1.0 - exp(-path / 350e3));
+  out_colour = vec4(colour, 1.0);
+  out_distance = vec4(-1.0, 0.0, 0.0, 1.0);
+}`;
+
+// Small vector helpers (double precision, plain arrays).
+const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+const len = (a) => Math.hypot(a[0], a[1], a[2]);
+const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+
+function tileKey(z, x, y) {
+  return `${z}/${x}/${y}`;
+}
+
+/// Degrees of the tile's bounds: { west, south, east, north }.
+export function tileBounds(z, x, y) {
+  const size = 180 / 2 ** z;
+  return { west: -180 + x * size, south: -90 + y * size, east: -180 + (x + 1) * size, north: -90 + (y + 1) * size };
+}
+
+export class PlanetView {
+  /// Fetches the planet's definition and layer.json; throws an ApiError that names the planet
+  /// when it does not exist.
+  static async open(gl, id) {
+    let definition, layer;
+    try {
+      definition = await fetchJson(`/api/v1/planets/${encodeURIComponent(id)}`);
+      layer = await fetchJson(`/api/v1/planets/${encodeURIComponent(id)}/layer.json`);
+    } catch (e) {
+      if (e instanceof ApiError && (e.status === 404 || e.status === 400)) {
+        throw new ApiError(`There is no planet "${id}"${e.status === 400 ? ` (${e.message})` : ''}.`, { status: e.status });
+      }
+      throw e;
+    }
+    if (!gl.getExtension('EXT_color_buffer_float')) {
+      throw new Error('This browser cannot render to float textures (EXT_color_buffer_float), which the viewer needs.');
+    }
+    return new PlanetView(gl, id, definition, layer);
+  }
+
+  constructor(gl, id, definition, layer) {
+    this.gl = gl;
+    this.id = id;
+    this.definition = definition;
+    this.geodesy = new Geodesy(definition.radius, definition.flattening ?? 0);
+    this.radius = definition.radius;
+    this.seaLevel = definition.sea_level ?? 0;
+    this.maxHeight = definition.max_mountain_altitude ?? 10000;
+    this.maxZoom = layer.maxzoom ?? 23;
+    // The id's immutable URL template (layer.json reached through "default" points there).
+    const template = (layer.tiles && layer.tiles[0]) || `/api/v1/planets/${id}/mesh/{z}/{x}/{y}.terrain`;
+    this.tileUrl = (z, x, y) => new URL(template.replace('{z}', z).replace('{x}', x).replace('{y}', y)
+      .replace('{version}', layer.version ?? '1'), `${location.origin}/api/v1/planets/${id}/`).href;
+    // The occluder for horizon culling: nothing drawn lies below sea level (heights are clamped
+    // there), so the reference ellipsoid raised to min(sea level, 0) less a metre hides what is
+    // behind it.
+    const s = Math.min(this.seaLevel, 0) - 1;
+    this.occluderRadii = [this.geodesy.a + s, this.geodesy.a + s, this.geodesy.b + s];
+
+    this.terrainProgram = compileProgram(gl, TERRAIN_VS, TERRAIN_FS);
+    this.skyProgram = compileProgram(gl, SKY_VS, SKY_FS);
+    this.uniforms = new Map();
+    for (const program of [this.terrainProgram, this.skyProgram]) {
+      const u = {};
+      const count = gl.getProgramParameter(program, gl.ACTIVE_UNIFORMS);
+      for (let i = 0; i < count; ++i) {
+        const name = gl.getActiveUniform(program, i).name;
+        u[name] = gl.getUniformLocation(program, name);
+      }
+      this.uniforms.set(program, u);
+    }
+    this.skyVao = gl.createVertexArray();
+    this.tiles = new Map();
+    this.frame = 0;
+    this.inFlight = 0;
+    this.arrived = true;   // a tile arrived (or failed) since the last draw: draw again
+    this.error = null;     // the last tile failure, as a message
+    this.target = null;
+    this.stats = { drawn: 0, missing: 0, triangles: 0 };
+    this.disposed = false;
+  }
+
+  dispose() {
+    const gl = this.gl;
+    this.disposed = true;
+    for (const tile of this.tiles.values()) this.release(tile);
+    this.tiles.clear();
+    if (this.target) {
+      gl.deleteFramebuffer(this.target.framebuffer);
+      gl.deleteTexture(this.target.colour);
+      gl.deleteTexture(this.target.distance);
+      gl.deleteRenderbuffer(this.target.depth);
+    }
+    gl.deleteVertexArray(this.skyVao);
+    gl.deleteProgram(this.terrainProgram);
+    gl.deleteProgram(this.skyProgram);
+  }
+
+  /// Whether something arrived that the picture should show; resets the flag.
+  takeArrived() {
+    const a = this.arrived;
+    this.arrived = false;
+    return a;
+  }
+
+  /// Geometric error of a tile at zoom z: the server meshes a 65² grid with a largest vertical
+  /// error of a quarter of the sample spacing (ProductOptions::max_error's default), so that is
+  /// the error a tile has against the grid (Cesium's terrain providers estimate it the same way).
+  geometricError(z) {
+    return (Math.PI * this.radius) / (2 ** z * GRID_CELLS) / 4;
+  }
+
+  /// The tile (z, x, y), made on first use. A tile not loaded yet gets a bounding volume from
+  /// its parent's heights (children are only visited once their parent is loaded), or, for the
+  /// roots, from sea level to the highest mountain the definition allows.
+  tile(z, x, y, parent = null) {
+    const key = tileKey(z, x, y);
+    let t = this.tiles.get(key);
+    if (!t) {
+      t = { key, z, x, y, bounds: tileBounds(z, x, y), state: 'none', lastUsed: 0, volume: null };
+      this.tiles.set(key, t);
+    }
+    if (!t.volume) {
+      // Finer samples add detail below the parent's sample spacing: allow a few of its errors.
+      const margin = parent ? 4 * this.geometricError(parent.z) : 0;
+      const range = parent?.range ?? [this.seaLevel, this.maxHeight];
+      t.volume = this.estimateVolume(t, Math.max(this.seaLevel, range[0] - margin), range[1] + margin);
+    }
+    return t;
+  }
+
+  /// A bounding sphere and occludee point for a tile not loaded yet: its bounds on a grid of
+  /// points between heights `bottom` and `top`, widened by how far the surface bulges between
+  /// grid points.
+  estimateVolume(t, bottom, top) {
+    const { west, south, east, north } = t.bounds;
+    const n = t.z < 2 ? 9 : 5;
+    const bulge = (this.radius + top) * (1 - Math.cos((((north - south) / (n - 1)) * Math.PI) / 180));
+    const points = [];
+    for (let i = 0; i < n; ++i) {
+      for (let j = 0; j < n; ++j) {
+        const lat = south + ((north - south) * i) / (n - 1);
+        const lon = west + ((east - west) * j) / (n - 1);
+        points.push(this.geodesy.ecef(lat, lon, bottom));
+        points.push(this.geodesy.ecef(lat, lon, top + bulge));
+      }
+    }
+    return this.volumeOf(points, bulge);
+  }
+
+  /// Bounding sphere (centre of the points' box, radius to the farthest) and Cesium's
+  /// occludee point in the occluder's scaled space (null when no finite point exists, as for
+  /// hemisphere-wide tiles: then the tile is never horizon-culled).
+  volumeOf(points, margin = 0) {
+    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+    for (const p of points) for (let i = 0; i < 3; ++i) { lo[i] = Math.min(lo[i], p[i]); hi[i] = Math.max(hi[i], p[i]); }
+    const centre = [0, 1, 2].map((i) => (lo[i] + hi[i]) / 2);
+    let radius = 0;
+    for (const p of points) radius = Math.max(radius, len(sub(p, centre)));
+    radius += margin;
+    const r = this.occluderRadii;
+    const scaled = (p) => [p[0] / r[0], p[1] / r[1], p[2] / r[2]];
+    const c = scaled(centre);
+    const direction = c.map((v) => v / len(c));
+    let magnitude = 0;
+    for (const p of points) {
+      const m = occludeeMagnitude(scaled(p), direction);
+      if (!(m > 0) || !Number.isFinite(m)) return { centre, radius, occludee: null };
+      magnitude = Math.max(magnitude, m);
+    }
+    return { centre, radius, occludee: direction.map((v) => v * magnitude) };
+  }
+
+  // ---------------------------------------------------------------- tile loading
+
+  request(tile) {
+    tile.state = 'loading';
+    this.inFlight += 1;
+    const url = this.tileUrl(tile.z, tile.x, tile.y);
+    fetch(url, { headers: { Accept: ACCEPT } })
+      .then(async (response) => {
+        if (!response.ok) throw new ApiError(`${response.status} ${response.statusText} for ${url}`, { status: response.status });
+        return decodeQuantizedMesh(await response.arrayBuffer());
+      }, (e) => {
+        throw new ApiError(`The terrain server is unreachable (${url}): ${e.message}`);
+      })
+      .then((mesh) => {
+        if (this.disposed) return;
+        this.upload(tile, mesh);
+        tile.state = 'ready';
+        this.error = null;
+      })
+      .catch((e) => {
+        if (this.disposed) return;
+        tile.state = 'failed';
+        tile.failedAt = performance.now();
+        this.error = e.message;
+        setTimeout(() => { this.arrived = true; }, RETRY_MS);
+      })
+      .finally(() => {
+        this.inFlight -= 1;
+        this.arrived = true;
+      });
+  }
+
+  /// Builds the tile's vertex and index buffers (with skirts), water mask texture, exact
+  /// bounding volume, and the heights heightAt() reads.
+  upload(tile, received) {
+    const gl = this.gl;
+    const { west, south, east, north } = tile.bounds;
+    const mesh = curveMesh(received, tile.z);
+    const count = mesh.vertexCount;
+    const edgeCount = mesh.edges.west.length + mesh.edges.south.length + mesh.edges.east.length + mesh.edges.north.length;
+    const total = count + edgeCount;
+    const ecef = new Float64Array(3 * count);
+    const ups = new Float64Array(3 * count);
+    const rendered = new Float64Array(count);  // heights as drawn: clamped at sea level
+    const points = [];
+    for (let i = 0; i < count; ++i) {
+      const lon = west + ((east - west) * mesh.u[i]) / 32767;
+      const lat = south + ((north - south) * mesh.v[i]) / 32767;
+      rendered[i] = Math.max(mesh.heights[i], this.seaLevel);
+      const p = this.geodesy.ecef(lat, lon, rendered[i]);
+      ecef.set(p, 3 * i);
+      ups.set(this.geodesy.frame(lat, lon).up, 3 * i);
+      points.push(p);
+    }
+    const volume = this.volumeOf(points);
+    const centre = volume.centre;
+    let lowest = Infinity, highest = -Infinity;
+    for (const value of rendered) { lowest = Math.min(lowest, value); highest = Math.max(highest, value); }
+
+    // Interleaved vertices relative to the centre; the skirt vertices (one below each edge
+    // vertex) hide the cracks between tiles of different levels.
+    const data = new Float32Array(total * FLOATS_PER_VERTEX);
+    const put = (slot, i, drop) => {
+      const o = slot * FLOATS_PER_VERTEX;
+      for (let c = 0; c < 3; ++c) {
+        data[o + c] = ecef[3 * i + c] - ups[3 * i + c] * drop - centre[c];
+        data[o + 3 + c] = mesh.normals ? mesh.normals[3 * i + c] : ups[3 * i + c];
+        data[o + 6 + c] = ups[3 * i + c];
+      }
+      data[o + 9] = mesh.u[i] / 32767;
+      data[o + 10] = mesh.v[i] / 32767;
+      data[o + 11] = mesh.heights[i];
+    };
+    for (let i = 0; i < count; ++i) put(i, i, 0);
+    const skirt = this.geometricError(tile.z) * 5;
+    const skirtIndices = [];
+    let slot = count;
+    for (const side of ['west', 'south', 'east', 'north']) {
+      const list = mesh.edges[side];
+      for (let j = 0; j < list.length; ++j) {
+        put(slot + j, list[j], skirt);
+        if (j > 0) {
+          const a = list[j - 1], b = list[j], as = slot + j - 1, bs = slot + j;
+          skirtIndices.push(a, b, as, b, bs, as);
+        }
+      }
+      slot += list.length;
+    }
+    const indexCount = mesh.indices.length + skirtIndices.length;
+    const wide = total > 65535;
+    const indices = wide ? new Uint32Array(indexCount) : new Uint16Array(indexCount);
+    indices.set(mesh.indices);
+    indices.set(skirtIndices, mesh.indices.length);
+
+    const vao = gl.createVertexArray();
+    gl.bindVertexArray(vao);
+    const vbo = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, vbo);
+    gl.bufferData(gl.ARRAY_BUFFER, data, gl.STATIC_DRAW);
+    const stride = FLOATS_PER_VERTEX * 4;
+    [[0, 3, 0], [1, 3, 3], [2, 3, 6], [3, 2, 9], [4, 1, 11]].forEach(([loc, size, offset]) => {
+      gl.enableVertexAttribArray(loc);
+      gl.vertexAttribPointer(loc, size, gl.FLOAT, false, stride, offset * 4);
+    });
+    const ibo = gl.createBuffer();
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ibo);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, indices, gl.STATIC_DRAW);
+    gl.bindVertexArray(null);
+
+    let mask = null;
+    let water = 0;
+    if (mesh.waterMask && mesh.waterMask.length === 65536) {
+      mask = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, mask);
+      gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.R8, 256, 256, 0, gl.RED, gl.UNSIGNED_BYTE, mesh.waterMask);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.LINEAR);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.LINEAR);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+      gl.bindTexture(gl.TEXTURE_2D, null);
+      water = -1;
+    } else if (mesh.waterMask) {
+      water = mesh.waterMask[0] / 255;
+    }
+    tile.gpu = { vao, vbo, ibo, mask, water, indexCount, indexType: wide ? gl.UNSIGNED_INT : gl.UNSIGNED_SHORT };
+    tile.centre = centre;
+    tile.volume = volume;
+    tile.range = [lowest, highest];
+    tile.mesh = { u: mesh.u, v: mesh.v, heights: rendered, indices: mesh.indices, header: received.header,
+      vertexCount: count, receivedVertices: received.vertexCount };
+  }
+
+  release(tile) {
+    const gl = this.gl;
+    if (tile.gpu) {
+      gl.deleteVertexArray(tile.gpu.vao);
+      gl.deleteBuffer(tile.gpu.vbo);
+      gl.deleteBuffer(tile.gpu.ibo);
+      if (tile.gpu.mask) gl.deleteTexture(tile.gpu.mask);
+    }
+    tile.gpu = null;
+    tile.mesh = null;
+  }
+
+  // Least recently used tiles go once more than MAX_TILES are loaded (never the roots, never
+  // one drawn or visited in this frame).
+  evict() {
+    const ready = [...this.tiles.values()].filter((t) => t.state === 'ready');
+    if (ready.length > MAX_TILES) {
+      ready.sort((a, b) => a.lastUsed - b.lastUsed);
+      for (const t of ready.slice(0, ready.length - MAX_TILES)) {
+        if (t.z === 0 || t.lastUsed === this.frame) continue;
+        this.release(t);
+        this.tiles.delete(t.key);
+      }
+    }
+    // Tiles never loaded and not visited for a while are only bookkeeping: drop them too.
+    if (this.tiles.size > 4 * MAX_TILES) {
+      for (const t of this.tiles.values()) {
+        if (t.state !== 'ready' && t.state !== 'loading' && t.lastUsed < this.frame - 10) this.tiles.delete(t.key);
+      }
+    }
+  }
+
+  // ---------------------------------------------------------------- selection
+
+  /// Chooses the tiles to draw for a camera: returns { draws, wanted, complete }.
+  select(pose, width, height, fov, near) {
+    const eye = pose.eye;
+    const tanY = Math.tan((fov * Math.PI) / 360);
+    const tanX = tanY * (width / height);
+    const plane = (f, s, t) => {
+      const n = [0, 1, 2].map((i) => pose.forward[i] * t + s * f[i]);
+      const l = len(n);
+      return n.map((v) => v / l);
+    };
+    const planes = [plane(pose.right, 1, tanX), plane(pose.right, -1, tanX), plane(pose.up, 1, tanY), plane(pose.up, -1, tanY)];
+    const pixelsPerTangent = height / (2 * tanY);
+    const r = this.occluderRadii;
+    const cam = [eye[0] / r[0], eye[1] / r[1], eye[2] / r[2]];
+    const camSq = dot(cam, cam) - 1;
+    const visible = (volume) => {
+      const c = sub(volume.centre, eye);
+      if (dot(c, pose.forward) < near - volume.radius) return false;  // behind the eye
+      for (const p of planes) if (dot(c, p) < -volume.radius) return false;
+      if (volume.occludee && camSq > 0) {
+        // Cesium's EllipsoidalOccluder.isScaledSpacePointVisible.
+        const vt = sub(volume.occludee, cam);
+        const vtDotVc = -dot(vt, cam);
+        if (vtDotVc > camSq && (vtDotVc * vtDotVc) / dot(vt, vt) > camSq) return false;
+      }
+      return true;
+    };
+    const draws = [];
+    const wanted = [];
+    let complete = true;
+    const frame = this.frame;
+    const now = performance.now();
+    const want = (tile, distance) => {
+      complete = false;
+      if (tile.state === 'none' || (tile.state === 'failed' && now - tile.failedAt > RETRY_MS)) wanted.push({ tile, distance });
+    };
+    // Returns whether the tile's area is covered by what it pushed to `draws` (or needs nothing).
+    let visited = 0;
+    const visit = (tile) => {
+      visited += 1;
+      tile.lastUsed = frame;
+      const volume = tile.volume;
+      if (!visible(volume)) return true;
+      const distance = Math.max(len(sub(volume.centre, eye)) - volume.radius, near);
+      // Only a loaded tile is refined: its children's volumes then come from its real heights,
+      // and the levels load from the top, each deciding with the best knowledge there is.
+      if (tile.state !== 'ready') {
+        want(tile, distance);
+        return false;
+      }
+      const error = (this.geometricError(tile.z) / distance) * pixelsPerTangent;
+      if (tile.z >= this.maxZoom || error <= MAX_SCREEN_ERROR) {
+        draws.push(tile);
+        return true;
+      }
+      const before = draws.length;
+      let covered = true;
+      for (let j = 0; j < 2; ++j) {
+        for (let i = 0; i < 2; ++i) {
+          if (!visit(this.tile(tile.z + 1, 2 * tile.x + i, 2 * tile.y + j, tile))) covered = false;
+        }
+      }
+      if (covered) return true;
+      // Some child cannot be drawn yet: this tile stands in for all four (no holes, no overlap).
+      draws.length = before;
+      draws.push(tile);
+      return true;
+    };
+    for (let x = 0; x < 2; ++x) visit(this.tile(0, x, 0));
+    return { draws, wanted, complete, visited };
+  }
+
+  /// Starts fetches for wanted tiles, coarser and nearer first, up to MAX_FETCHES at a time.
+  fetchWanted(wanted) {
+    wanted.sort((a, b) => a.tile.z - b.tile.z || a.distance - b.distance);
+    for (const { tile } of wanted) {
+      if (this.inFlight >= MAX_FETCHES) break;
+      this.request(tile);
+    }
+  }
+
+  /// Height of the drawn surface (metres, clamped at sea level) at a latitude and longitude,
+  /// from the finest loaded tile holding the point; sea level where none is loaded.
+  heightAt(lat, lon) {
+    const wrapped = ((((lon + 180) % 360) + 360) % 360) - 180;
+    let best = null;
+    let z = 0;
+    let x = Math.min(1, Math.floor((wrapped + 180) / 180));
+    let y = 0;
+    for (;;) {
+      const t = this.tiles.get(tileKey(z, x, y));
+      if (!t || t.state !== 'ready') break;
+      best = t;
+      if (z >= this.maxZoom) break;
+      const b = t.bounds;
+      x = 2 * x + (wrapped >= (b.west + b.east) / 2 ? 1 : 0);
+      y = 2 * y + (lat >= (b.south + b.north) / 2 ? 1 : 0);
+      z += 1;
+    }
+    if (!best) return this.seaLevel;
+    const { west, south, east, north } = best.bounds;
+    const pu = ((wrapped - west) / (east - west)) * 32767;
+    const pv = ((Math.max(south, Math.min(north, lat)) - south) / (north - south)) * 32767;
+    const { u, v, heights, indices } = best.mesh;
+    for (let i = 0; i < indices.length; i += 3) {
+      const a = indices[i], b = indices[i + 1], c = indices[i + 2];
+      const det = (v[b] - v[c]) * (u[a] - u[c]) + (u[c] - u[b]) * (v[a] - v[c]);
+      if (det === 0) continue;
+      const l1 = ((v[b] - v[c]) * (pu - u[c]) + (u[c] - u[b]) * (pv - v[c])) / det;
+      const l2 = ((v[c] - v[a]) * (pu - u[c]) + (u[a] - u[c]) * (pv - v[c])) / det;
+      const l3 = 1 - l1 - l2;
+      const eps = -1e-9;
+      if (l1 >= eps && l2 >= eps && l3 >= eps) return l1 * heights[a] + l2 * heights[b] + l3 * heights[c];
+    }
+    return this.seaLevel;
+  }
+
+  // ---------------------------------------------------------------- drawing
+
+  ensureTarget(width, height) {
+    const gl = this.gl;
+    if (this.target && this.target.width === width && this.target.height === height) return this.target;
+    if (this.target) {
+      gl.deleteFramebuffer(this.target.framebuffer);
+      gl.deleteTexture(this.target.colour);
+      gl.deleteTexture(this.target.distance);
+      gl.deleteRenderbuffer(this.target.depth);
+    }
+    const texture = (internal, format, type) => {
+      const t = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, t);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      gl.texImage2D(gl.TEXTURE_2D, 0, internal, width, height, 0, format, type, null);
+      return t;
+    };
+    const colour = texture(gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE);
+    const distance = texture(gl.RGBA32F, gl.RGBA, gl.FLOAT);
+    const depth = gl.createRenderbuffer();
+    gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
+    gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT32F, width, height);
+    const framebuffer = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, framebuffer);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, colour, 0);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT1, gl.TEXTURE_2D, distance, 0);
+    gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, depth);
+    gl.drawBuffers([gl.COLOR_ATTACHMENT0, gl.COLOR_ATTACHMENT1]);
+    const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`offscreen target incomplete (0x${status.toString(16)})`);
+    this.target = { framebuffer, colour, distance, depth, width, height };
+    return this.target;
+  }
+
+  /// Selects, requests and draws the tiles for `camera` into the offscreen target and shows it
+  /// on the canvas. Returns { ms, complete, tiles, loading, triangles }: complete when every
+  /// tile the view needs was loaded and drawn.
+  draw(camera, width, height, { show = true, fetch = true } = {}) {
+    const gl = this.gl;
+    const start = performance.now();
+    this.frame += 1;
+    const pose = camera.pose(this.geodesy);
+    const eye = pose.eye;
+    // Clip planes: near a fraction of the height above the ground, far beyond the horizon of
+    // the highest mountain. Depth precision comes from the logarithmic depth, not from these.
+    const ground = this.heightAt(camera.lat, camera.lon);
+    const clearance = Math.max(camera.alt - ground, 1);
+    const near = Math.min(Math.max(clearance * 0.05, 0.05), 1e5);
+    const rEye = len(eye);
+    const rMin = Math.min(...this.occluderRadii);
+    const rTop = this.radius + this.maxHeight;
+    const far = Math.sqrt(Math.max(rEye * rEye - rMin * rMin, 0)) + Math.sqrt(rTop * rTop - rMin * rMin) + rTop * 0.01;
+
+    const { draws, wanted, complete, visited } = this.select(pose, width, height, camera.fov, near);
+    if (fetch) this.fetchWanted(wanted);
+
+    const target = this.ensureTarget(width, height);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, target.framebuffer);
+    gl.viewport(0, 0, width, height);
+    gl.disable(gl.SCISSOR_TEST);
+    gl.disable(gl.CULL_FACE);  // skirts are seen from both sides
+    gl.disable(gl.BLEND);
+
+    const centreRel = eye.map((v) => -v);
+    const cc = dot(centreRel, centreRel);
+    const atmosphere = (program) => {
+      const u = this.uniforms.get(program);
+      gl.uniform3fv(u.u_centre, centreRel);
+      gl.uniform1f(u.u_c_atmosphere, cc - (this.radius + ATMOSPHERE) ** 2);
+      gl.uniform1f(u.u_c_ground, cc - (this.radius + this.seaLevel) ** 2);
+      return u;
+    };
+
+    // Sky (and space) behind everything.
+    gl.disable(gl.DEPTH_TEST);
+    gl.depthMask(false);
+    gl.useProgram(this.skyProgram);
+    const tanY = Math.tan((camera.fov * Math.PI) / 360);
+    let u = atmosphere(this.skyProgram);
+    gl.uniform3fv(u.u_forward, pose.forward);
+    gl.uniform3fv(u.u_right, pose.right);
+    gl.uniform3fv(u.u_up, pose.up);
+    gl.uniform2f(u.u_tan, tanY * (width / height), tanY);
+    gl.uniform2f(u.u_size, width, height);
+    gl.uniform1f(u.u_atmosphere, ATMOSPHERE);
+    gl.bindVertexArray(this.skyVao);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+
+    // Terrain.
+    gl.enable(gl.DEPTH_TEST);
+    gl.depthFunc(gl.LESS);
+    gl.depthMask(true);
+    gl.clearDepth(1);
+    gl.clear(gl.DEPTH_BUFFER_BIT);
+    gl.useProgram(this.terrainProgram);
+    u = atmosphere(this.terrainProgram);
+    // The sun stands over the viewer's shoulder (north-east, 55° up, in the frame of the point
+    // under the camera) so that whatever one looks at is lit.
+    const sun = [0, 1, 2].map((i) => 0.35 * pose.east[i] + 0.45 * pose.north[i] + 0.82 * pose.localUp[i]);
+    const sunLength = len(sun);
+    gl.uniform3fv(u.u_sun, sun.map((v) => v / sunLength));
+    gl.uniform1f(u.u_sea_level, this.seaLevel);
+    gl.uniform1f(u.u_snow_line, this.maxHeight * 0.75);
+    gl.uniform1f(u.u_log_depth, 2 / Math.log2(far + 1));
+    gl.uniform1f(u.u_fog_scale, FOG_SCALE);
+    gl.uniform1i(u.u_mask, 0);
+    gl.activeTexture(gl.TEXTURE0);
+    const projection = perspective(camera.fov, width / height, near, far);
+    // Rows of the rotation into the camera frame: right, up, back.
+    const rot = [pose.right, pose.up, pose.forward.map((v) => -v)];
+    const mvp = new Float32Array(16);
+    let triangles = 0;
+    for (const tile of draws) {
+      const offset = sub(tile.centre, eye);  // double
+      const t = rot.map((row) => dot(row, offset));
+      // model-view = [rot | t]; mvp = projection × model-view, column-major.
+      const mv = [
+        rot[0][0], rot[1][0], rot[2][0], 0,
+        rot[0][1], rot[1][1], rot[2][1], 0,
+        rot[0][2], rot[1][2], rot[2][2], 0,
+        t[0], t[1], t[2], 1,
+      ];
+      multiply(projection, mv, mvp);
+      gl.uniformMatrix4fv(u.u_mvp, false, mvp);
+      gl.uniform3fv(u.u_offset, offset);
+      gl.uniform1f(u.u_water, tile.gpu.water);
+      gl.bindTexture(gl.TEXTURE_2D, tile.gpu.mask);
+      gl.bindVertexArray(tile.gpu.vao);
+      gl.drawElements(gl.TRIANGLES, tile.gpu.indexCount, tile.gpu.indexType, 0);
+      triangles += tile.gpu.indexCount / 3;
+    }
+    gl.bindVertexArray(null);
+    gl.bindTexture(gl.TEXTURE_2D, null);
+    gl.disable(gl.DEPTH_TEST);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+
+    if (show) {
+      gl.bindFramebuffer(gl.READ_FRAMEBUFFER, target.framebuffer);
+      gl.readBuffer(gl.COLOR_ATTACHMENT0);
+      gl.bindFramebuffer(gl.DRAW_FRAMEBUFFER, null);
+      gl.blitFramebuffer(0, 0, width, height, 0, 0, width, height, gl.COLOR_BUFFER_BIT, gl.NEAREST);
+      gl.bindFramebuffer(gl.READ_FRAMEBUFFER, null);
+      const probe = new Uint8Array(4);
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, probe);  // waits for the GPU
+    }
+    this.evict();
+    const ms = performance.now() - start;
+    this.stats = { tiles: draws.length, visited, loading: this.inFlight, triangles, ms, complete };
+    return this.stats;
+  }
+
+  /// The view drawn afresh at `width` × `height` from the tiles loaded now, for tests and
+  /// screenshots: { width, height, rgba (top row first), depth (metres, −1 for sky), ms, tiles }.
+  capture(camera, width, height) {
+    const gl = this.gl;
+    const start = performance.now();
+    const stats = this.draw(camera, width, height, { show: false, fetch: false });
+    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, this.target.framebuffer);
+    gl.readBuffer(gl.COLOR_ATTACHMENT0);
+    const bottomUp = new Uint8Array(width * height * 4);
+    gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, bottomUp);
+    const ms = performance.now() - start;  // the frame, GPU work included (readPixels waits)
+    gl.readBuffer(gl.COLOR_ATTACHMENT1);
+    const distances = new Float32Array(width * height * 4);
+    gl.readPixels(0, 0, width, height, gl.RGBA, gl.FLOAT, distances);
+    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, null);
+    const rgba = new Array(width * height * 4);
+    const depth = new Array(width * height);
+    for (let y = 0; y < height; ++y) {
+      const from = (height - 1 - y) * width;
+      for (let x = 0; x < width; ++x) {
+        for (let c = 0; c < 4; ++c) rgba[(y * width + x) * 4 + c] = bottomUp[(from + x) * 4 + c];
+        depth[y * width + x] = distances[(from + x) * 4];
+      }
+    }
+    return { width, height, rgba, depth, ms, tiles: stats.tiles, triangles: stats.triangles, complete: stats.complete };
+  }
+}
+
+/// The server's mesh is adaptive in (longitude, latitude, height): over flat sea floor a zoom-0
+/// triangle may span tens of degrees, and drawn as a flat triangle between points on the sphere
+/// its chord would sag hundreds of kilometres below the surface. So triangles are bisected at
+/// the midpoint of their longest edge (the RTIN hypotenuse; u, v, height and normal
+/// interpolated there) until the chord sag R·θ²/8 of the longest edge is at most the tile's
+/// geometric error, a quarter of the sample spacing s (θ² ≤ 2s/R: θ ≤ √(40.7·2^z) grid
+/// cells). That is the uniform RTIN level OR-ed with the server's splits, so the result is still
+/// conforming (a shared midpoint is made once, by its edge's key), and tile edges, already one
+/// grid cell per segment, are untouched.
+export function curveMesh(mesh, z) {
+  const cell = 32767 / GRID_CELLS;
+  const limit = Math.max(1, Math.floor(Math.sqrt((2 * GRID_CELLS * 2 ** z) / Math.PI))) * cell;
+  const limitSquared = limit * limit * 1.0001;
+  const u = Array.from(mesh.u), v = Array.from(mesh.v), h = Array.from(mesh.heights);
+  const normals = mesh.normals ? Array.from(mesh.normals) : null;
+  const midpoints = new Map();
+  const midpoint = (a, b) => {
+    const key = a < b ? `${a},${b}` : `${b},${a}`;
+    let m = midpoints.get(key);
+    if (m === undefined) {
+      m = u.length;
+      u.push((u[a] + u[b]) / 2);
+      v.push((v[a] + v[b]) / 2);
+      h.push((h[a] + h[b]) / 2);
+      if (normals) {
+        const n = [0, 1, 2].map((c) => normals[3 * a + c] + normals[3 * b + c]);
+        const l = Math.hypot(n[0], n[1], n[2]) || 1;
+        normals.push(n[0] / l, n[1] / l, n[2] / l);
+      }
+      midpoints.set(key, m);
+    }
+    return m;
+  };
+  const edge = (a, b) => (u[a] - u[b]) ** 2 + (v[a] - v[b]) ** 2;
+  const out = [];
+  const stack = [];
+  for (let i = mesh.indices.length - 3; i >= 0; i -= 3) stack.push([mesh.indices[i], mesh.indices[i + 1], mesh.indices[i + 2]]);
+  while (stack.length) {
+    let [a, b, c] = stack.pop();
+    // Rotate so that (a, b) is the longest edge; the corner order (winding) is kept.
+    const ab = edge(a, b), bc = edge(b, c), ca = edge(c, a);
+    if (bc > ab && bc >= ca) [a, b, c] = [b, c, a];
+    else if (ca > ab && ca > bc) [a, b, c] = [c, a, b];
+    if (edge(a, b) <= limitSquared) {
+      out.push(a, b, c);
+      continue;
+    }
+    const m = midpoint(a, b);
+    stack.push([m, b, c], [a, m, c]);
+  }
+  if (out.length === mesh.indices.length) return mesh;
+  return {
+    ...mesh,
+    vertexCount: u.length,
+    u: Float64Array.from(u),
+    v: Float64Array.from(v),
+    heights: Float64Array.from(h),
+    normals: normals ? Float32Array.from(normals) : null,
+    indices: u.length > 65535 ? Uint32Array.from(out) : Uint16Array.from(out),
+  };
+}
+
+/// Cesium's magnitude for the occludee point along `direction` (unit, scaled space) that puts
+/// scaled-space point `p` below the horizon whenever the occludee is.
+function occludeeMagnitude(p, direction) {
+  let magnitudeSquared = dot(p, p);
+  let magnitude = Math.sqrt(magnitudeSquared);
+  const d = p.map((v) => v / magnitude);
+  magnitudeSquared = Math.max(1, magnitudeSquared);
+  magnitude = Math.max(1, magnitude);
+  const cosAlpha = dot(d, direction);
+  const sinAlpha = len(cross(d, direction));
+  const cosBeta = 1 / magnitude;
+  const sinBeta = Math.sqrt(magnitudeSquared - 1) * cosBeta;
+  return 1 / (cosAlpha * cosBeta - sinAlpha * sinBeta);
+}
+
+/// OpenGL perspective projection (column-major), fov in degrees (vertical).
+function perspective(fov, aspect, near, far) {
+  const f = 1 / Math.tan((fov * Math.PI) / 360);
+  return [
+    f / aspect, 0, 0, 0,
+    0, f, 0, 0,
+    0, 0, (far + near) / (near - far), -1,
+    0, 0, (2 * far * near) / (near - far), 0,
+  ];
+}
+
+/// out = a × b for column-major 4×4 matrices (double arithmetic, float32 result).
+function multiply(a, b, out) {
+  for (let c = 0; c < 4; ++c) {
+    for (let r = 0; r < 4; ++r) {
+      let s = 0;
+      for (let k = 0; k < 4; ++k) s += a[k * 4 + r] * b[c * 4 + k];
+      out[c * 4 + r] = s;
+    }
+  }
+}
