@@ -451,7 +451,7 @@ Response product_response(const ReplyContext& c,
     r.body() = std::string(raw->begin(), raw->end());
   } else {
     if (!p.content_encoding.empty()) r.set(http::field::content_encoding, p.content_encoding);
-    r.body() = Payload(std::shared_ptr<const std::string>(product, &p.body));
+    r.body() = Payload(std::shared_ptr<const std::string>(product, &p.body), p.file);
   }
   if (!p.backend.empty()) r.set("X-Terrain-Backend", p.backend);
   r.prepare_payload();  // HEAD: the session drops the body and keeps this length
@@ -1222,6 +1222,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     cached->media_type = product->media_type;
     cached->content_encoding = product->content_encoding;
     cached->etag = product_etag(cached->body);
+    cached->file = SealedFile::create(cached->body);
     cached->backend = product->backend;
     cache_.insert(cache_key, cached);
     if (disk_cache_) disk_cache_->insert(cache_key, *cached);
@@ -1812,6 +1813,7 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
     cached->media_type = product->media_type;
     cached->content_encoding = product->content_encoding;
     cached->etag = product_etag(cached->body);
+    cached->file = SealedFile::create(cached->body);
     cached->backend = "cpu";  // planets have no GPU path yet
     cache_.insert(cache_key, cached);
     if (disk_cache_) disk_cache_->insert(cache_key, *cached);

@@ -15,7 +15,9 @@ std::shared_ptr<const CachedProduct> ProductCache::find(const std::string& key) 
 }
 
 void ProductCache::insert(const std::string& key, std::shared_ptr<const CachedProduct> product) {
-  const auto size = static_cast<std::int64_t>(product->body.size() + key.size() + 256);
+  // A sealed file holds a second copy of the body: it counts against the budget too.
+  const std::size_t body = product->body.size() * (product->file ? 2 : 1);
+  const auto size = static_cast<std::int64_t>(body + key.size() + 256);
   std::lock_guard lock(mutex_);
   if (auto it = index_.find(key); it != index_.end()) {
     bytes_ -= it->second->size;

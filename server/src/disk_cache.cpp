@@ -74,6 +74,7 @@ std::shared_ptr<const CachedProduct> DiskCache::find(const std::string& key) {
     return nullptr;
   }
   product->body.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  product->file = SealedFile::create(product->body);
   return product;
 }
 

@@ -1,4 +1,6 @@
 // terrain-server: configuration, store, built-in scenes, then HTTP until SIGINT/SIGTERM.
+#include <sys/resource.h>
+
 #include <boost/asio/signal_set.hpp>
 
 #include <iostream>
@@ -21,6 +23,12 @@ int main(int argc, char** argv) {
     return 0;
   }
   const server::Config& config = startup->config;
+  // Cached tiles are sent from sealed in-memory files, a descriptor each (server/sealed_file.hpp):
+  // take every descriptor the system allows this process, not the shell's default soft limit.
+  if (rlimit files{}; ::getrlimit(RLIMIT_NOFILE, &files) == 0 && files.rlim_cur < files.rlim_max) {
+    files.rlim_cur = files.rlim_max;
+    ::setrlimit(RLIMIT_NOFILE, &files);
+  }
   server::set_log_level(config.log_level);
   auto store = server::open_sqlite_store(config.data_dir);
   if (!store) {

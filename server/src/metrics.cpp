@@ -51,7 +51,8 @@ std::string Metrics::prometheus(const ProductCache& cache) const {
     out << "terrain_requests_total{route=\"" << key.first << "\",status=\"" << key.second << "\"} "
         << n << "\n";
   }
-  out << "# HELP terrain_request_seconds Time from a complete request to its response being ready to send.\n"
+  out << "# HELP terrain_request_seconds Time from a complete request to its response being ready "
+         "to send.\n"
          "# TYPE terrain_request_seconds histogram\n";
   for (const auto& [route, h] : latency_) {
     histogram_lines(out, "terrain_request_seconds", "route=\"" + route + "\"", h.counts, h.count,

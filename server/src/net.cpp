@@ -1,6 +1,11 @@
 #include "server/net.hpp"
 
+#include <sys/sendfile.h>
+#include <sys/socket.h>
+
+#include <cerrno>
 #include <cmath>
+#include <csignal>
 
 #include "server/log.hpp"
 
@@ -149,12 +154,57 @@ struct HttpServer::State {
   // out without a copy.
   awaitable<void> write(tcp::socket& socket, Deadline& deadline, const Response& response) {
     const std::string header = wire_header(response);
-    const std::array<asio::const_buffer, 2> buffers = {
-        asio::buffer(header), asio::buffer(response.body().data(), response.body().size())};
     deadline.arm(config.request_timeout_ms, Deadline::Expiry::close);
     boost::system::error_code ec;
-    co_await asio::async_write(socket, buffers, asio::redirect_error(use_awaitable, ec));
+    if (const SealedFile* file = response.body().file()) {
+      co_await send_file(socket, header, *file, ec);
+    } else {
+      const std::array<asio::const_buffer, 2> buffers = {
+          asio::buffer(header), asio::buffer(response.body().data(), response.body().size())};
+      co_await asio::async_write(socket, buffers, asio::redirect_error(use_awaitable, ec));
+    }
     deadline.disarm();
+  }
+
+  // The header, then the body straight from its sealed file with sendfile(2): the kernel takes
+  // the file's pages instead of a copy of the bytes, as nginx does for static files. The header
+  // goes with MSG_MORE so that it leaves in one segment with the start of the body.
+  static awaitable<void> send_file(tcp::socket& socket, const std::string& header,
+                                   const SealedFile& file, boost::system::error_code& ec) {
+    socket.native_non_blocking(true, ec);
+    if (ec) co_return;
+    std::size_t sent = 0;
+    while (sent < header.size()) {
+      const ssize_t n = ::send(socket.native_handle(), header.data() + sent, header.size() - sent,
+                               MSG_MORE | MSG_NOSIGNAL);
+      if (n >= 0) {
+        sent += static_cast<std::size_t>(n);
+      } else if (errno == EAGAIN || errno == EWOULDBLOCK) {
+        co_await socket.async_wait(tcp::socket::wait_write,
+                                   asio::redirect_error(use_awaitable, ec));
+        if (ec) co_return;
+      } else if (errno != EINTR) {
+        ec = boost::system::error_code(errno, boost::system::system_category());
+        co_return;
+      }
+    }
+    off_t offset = 0;
+    while (static_cast<std::size_t>(offset) < file.size()) {
+      const ssize_t n = ::sendfile(socket.native_handle(), file.descriptor(), &offset,
+                                   file.size() - static_cast<std::size_t>(offset));
+      if (n > 0) continue;
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+        co_await socket.async_wait(tcp::socket::wait_write,
+                                   asio::redirect_error(use_awaitable, ec));
+        if (ec) co_return;
+      } else if (n < 0 && errno == EINTR) {
+        continue;
+      } else {
+        ec = n == 0 ? asio::error::eof
+                    : boost::system::error_code(errno, boost::system::system_category());
+        co_return;
+      }
+    }
   }
 
   awaitable<void> session(tcp::socket accepted, Worker& worker) {
@@ -350,6 +400,9 @@ terrain::Result<int> HttpServer::listen() {
 }
 
 void HttpServer::run() {
+  // sendfile(2) has no MSG_NOSIGNAL: a client that hangs up mid-body would raise SIGPIPE and
+  // end the process. Broken pipes are errors of that one connection (EPIPE), nothing more.
+  std::signal(SIGPIPE, SIG_IGN);
   auto& workers = state_->workers;
   asio::co_spawn(workers[0]->io, state_->accept_loop(), asio::detached);
   std::vector<std::thread> threads;

@@ -22,7 +22,7 @@ class DiskCacheTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
   static CachedProduct product(std::size_t size, char fill) {
-    return {std::string(size, fill), "image/png", "", "\"etag\"", "cpu"};
+    return {std::string(size, fill), "image/png", "", "\"etag\"", "cpu", nullptr};
   }
   fs::path dir_;
 };

@@ -10,6 +10,8 @@
 #include <string>
 #include <unordered_map>
 
+#include "server/sealed_file.hpp"
+
 namespace server {
 
 /// A cached product: bytes as sent and the headers that describe them.
@@ -19,6 +21,8 @@ struct CachedProduct {
   std::string content_encoding;  ///< "" or "gzip"
   std::string etag;              ///< strong, quoted
   std::string backend;           ///< what evaluated it: "cpu", "gpu: <device>", ...
+  /// The body in a sealed in-memory file for zero-copy sends (SealedFile::create); may be null.
+  std::shared_ptr<const SealedFile> file;
 };
 
 class ProductCache {

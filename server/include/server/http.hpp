@@ -3,6 +3,8 @@
 
 #include <boost/beast/http.hpp>
 
+#include "server/sealed_file.hpp"
+
 #include <functional>
 #include <memory>
 #include <string>
@@ -22,17 +24,25 @@ class Payload {
   Payload(std::string text)  // NOLINT(google-explicit-constructor)
       : bytes_(text.empty() ? nullptr : std::make_shared<const std::string>(std::move(text))) {}
   Payload(const char* text) : Payload(std::string(text)) {}  // NOLINT(google-explicit-constructor)
-  explicit Payload(std::shared_ptr<const std::string> shared) : bytes_(std::move(shared)) {}
+  explicit Payload(std::shared_ptr<const std::string> shared,
+                   std::shared_ptr<const SealedFile> file = nullptr)
+      : bytes_(std::move(shared)), file_(std::move(file)) {}
 
   std::string_view view() const { return bytes_ ? std::string_view(*bytes_) : std::string_view(); }
   operator std::string_view() const { return view(); }  // NOLINT: a payload is its bytes
   const char* data() const { return view().data(); }
   std::size_t size() const { return bytes_ ? bytes_->size() : 0; }
   bool empty() const { return size() == 0; }
-  void clear() { bytes_.reset(); }
+  void clear() {
+    bytes_.reset();
+    file_.reset();
+  }
+  /// The same bytes in a sealed file the session may sendfile() from, or null.
+  const SealedFile* file() const { return file_.get(); }
 
  private:
   std::shared_ptr<const std::string> bytes_;
+  std::shared_ptr<const SealedFile> file_;
 };
 
 /// A Beast body over a Payload (responses only: requests are read into strings).
