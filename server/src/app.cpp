@@ -1488,8 +1488,9 @@ std::string App::default_planet_id() const {
   return default_planet_id_;
 }
 
-terrain::Result<LoadedPlanet, Response> App::resolve_planet(const Request& request,
-                                                            const std::string& ref) {
+// The planet id a ref names ("default" is the built-in planet), or the problem saying why none.
+terrain::Result<std::string, Response> App::planet_id_of(const Request& request,
+                                                         const std::string& ref) {
   const std::string id = ref == "default" ? default_planet_id() : ref;
   if (id.empty()) {
     return problem(request, http::status::not_found, "Not found",
@@ -1502,6 +1503,14 @@ terrain::Result<LoadedPlanet, Response> App::resolve_planet(const Request& reque
                    "'default'",
                    "/id");
   }
+  return id;
+}
+
+terrain::Result<LoadedPlanet, Response> App::resolve_planet(const Request& request,
+                                                            const std::string& ref) {
+  auto id_or = planet_id_of(request, ref);
+  if (!id_or) return id_or.error();
+  const std::string id = std::move(id_or).value();
   {
     std::lock_guard lock(planets_mutex_);
     if (auto it = planets_.find(id); it != planets_.end()) return it->second;
@@ -1596,18 +1605,9 @@ Response App::create_planet(const Request& request) {
 }
 
 Response App::get_planet(const Request& request, const std::string& ref) {
-  const std::string id = ref == "default" ? default_planet_id() : ref;
-  if (id.empty()) {
-    return problem(request, http::status::not_found, "Not found",
-                   "this server has no built-in default planet (store.planets_dir/default.json)",
-                   "/id");
-  }
-  if (!valid_planet_id(id)) {
-    return problem(request, http::status::bad_request, "Bad planet id",
-                   "a planet id is the 64 lowercase hex digits of its definition's SHA-256, or "
-                   "'default'",
-                   "/id");
-  }
+  auto id_or = planet_id_of(request, ref);
+  if (!id_or) return id_or.error();
+  const std::string id = std::move(id_or).value();
   StoreResult<StoredPlanet> stored = store_->get_planet(id);
   if (!stored) return store_problem(request, stored.error());
   // The id is the hash of exactly these bytes: the strongest ETag there is.

@@ -85,6 +85,8 @@ class App {
   Outcome planet_product(const Request& request, const std::string& ref,
                          const std::vector<std::string>& rest, const Target& target);
   /// The planet an id (or "default") names: 400 for a malformed id, 404 for an unknown one.
+  terrain::Result<std::string, Response> planet_id_of(const Request& request,
+                                                      const std::string& ref);
   terrain::Result<LoadedPlanet, Response> resolve_planet(const Request& request,
                                                          const std::string& ref);
 
