@@ -64,3 +64,46 @@ export function dataTexture(gl, data, { width = 1024, format }) {
   gl.bindTexture(gl.TEXTURE_2D, null);
   return texture;
 }
+
+/// An offscreen picture target: an RGBA8 picture (attachment 0) and per-pixel ray distances in
+/// an RGBA32F texture (attachment 1, needs EXT_color_buffer_float), plus a depth buffer when
+/// `depthBuffer` (meshes; traced pictures need none).
+export function createPictureTarget(gl, width, height, { depthBuffer = false } = {}) {
+  const texture = (internal, format, type) => {
+    const t = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, t);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    gl.texImage2D(gl.TEXTURE_2D, 0, internal, width, height, 0, format, type, null);
+    return t;
+  };
+  const colour = texture(gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE);
+  const distance = texture(gl.RGBA32F, gl.RGBA, gl.FLOAT);
+  let depth = null;
+  if (depthBuffer) {
+    depth = gl.createRenderbuffer();
+    gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
+    gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT32F, width, height);
+  }
+  const framebuffer = gl.createFramebuffer();
+  gl.bindFramebuffer(gl.FRAMEBUFFER, framebuffer);
+  gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, colour, 0);
+  gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT1, gl.TEXTURE_2D, distance, 0);
+  if (depth) gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, depth);
+  gl.drawBuffers([gl.COLOR_ATTACHMENT0, gl.COLOR_ATTACHMENT1]);
+  const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
+  gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+  const target = { framebuffer, colour, distance, depth, width, height };
+  if (status !== gl.FRAMEBUFFER_COMPLETE) {
+    deletePictureTarget(gl, target);
+    throw new Error(`offscreen target incomplete (0x${status.toString(16)})`);
+  }
+  return target;
+}
+
+export function deletePictureTarget(gl, target) {
+  gl.deleteFramebuffer(target.framebuffer);
+  gl.deleteTexture(target.colour);
+  gl.deleteTexture(target.distance);
+  if (target.depth) gl.deleteRenderbuffer(target.depth);
+}

@@ -20,7 +20,7 @@
 //   stands in for them. Tiles live in a bounded LRU cache and at most MAX_FETCHES are fetched at
 //   a time, coarser levels first.
 import { ApiError, fetchJson } from './api.js';
-import { compileProgram } from './gl.js';
+import { compileProgram, createPictureTarget, deletePictureTarget } from './gl.js';
 import { decodeQuantizedMesh } from './quantized_mesh.js';
 import { Geodesy } from './planet_camera.js';
 
@@ -251,12 +251,7 @@ export class PlanetView {
     this.disposed = true;
     for (const tile of this.tiles.values()) this.release(tile);
     this.tiles.clear();
-    if (this.target) {
-      gl.deleteFramebuffer(this.target.framebuffer);
-      gl.deleteTexture(this.target.colour);
-      gl.deleteTexture(this.target.distance);
-      gl.deleteRenderbuffer(this.target.depth);
-    }
+    if (this.target) deletePictureTarget(gl, this.target);
     gl.deleteVertexArray(this.skyVao);
     gl.deleteProgram(this.terrainProgram);
     gl.deleteProgram(this.skyProgram);
@@ -624,37 +619,9 @@ export class PlanetView {
   // ---------------------------------------------------------------- drawing
 
   ensureTarget(width, height) {
-    const gl = this.gl;
     if (this.target && this.target.width === width && this.target.height === height) return this.target;
-    if (this.target) {
-      gl.deleteFramebuffer(this.target.framebuffer);
-      gl.deleteTexture(this.target.colour);
-      gl.deleteTexture(this.target.distance);
-      gl.deleteRenderbuffer(this.target.depth);
-    }
-    const texture = (internal, format, type) => {
-      const t = gl.createTexture();
-      gl.bindTexture(gl.TEXTURE_2D, t);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-      gl.texImage2D(gl.TEXTURE_2D, 0, internal, width, height, 0, format, type, null);
-      return t;
-    };
-    const colour = texture(gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE);
-    const distance = texture(gl.RGBA32F, gl.RGBA, gl.FLOAT);
-    const depth = gl.createRenderbuffer();
-    gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
-    gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT32F, width, height);
-    const framebuffer = gl.createFramebuffer();
-    gl.bindFramebuffer(gl.FRAMEBUFFER, framebuffer);
-    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, colour, 0);
-    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT1, gl.TEXTURE_2D, distance, 0);
-    gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, depth);
-    gl.drawBuffers([gl.COLOR_ATTACHMENT0, gl.COLOR_ATTACHMENT1]);
-    const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
-    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
-    if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`offscreen target incomplete (0x${status.toString(16)})`);
-    this.target = { framebuffer, colour, distance, depth, width, height };
+    if (this.target) deletePictureTarget(this.gl, this.target);
+    this.target = createPictureTarget(this.gl, width, height, { depthBuffer: true });
     return this.target;
   }
 

@@ -3,7 +3,7 @@
 // live in textures; the node functions, the interpreter and the tracer itself are the server's
 // own GLSL (GET /api/v1/glsl/trace.glsl), after a prelude that reads those textures.
 import { decodeBase64 } from './api.js';
-import { compileProgram, dataTexture } from './gl.js';
+import { compileProgram, createPictureTarget, dataTexture, deletePictureTarget } from './gl.js';
 
 const TEXTURE_WIDTH = 1024;  // texels per row of every data texture (a power of two: shifts)
 
@@ -120,44 +120,15 @@ export class SceneView {
   }
 
   releaseTargets() {
-    const gl = this.gl;
-    for (const target of Object.values(this.targets)) {
-      gl.deleteFramebuffer(target.framebuffer);
-      gl.deleteTexture(target.colour);
-      gl.deleteTexture(target.depth);
-    }
+    for (const target of Object.values(this.targets)) deletePictureTarget(this.gl, target);
     this.targets = {};
   }
 
-  // An offscreen target: the RGBA8 picture and the ray distances (in an RGBA32F texture).
   ensureTarget(name, width, height) {
     const existing = this.targets[name];
     if (existing && existing.width === width && existing.height === height) return existing;
-    const gl = this.gl;
-    if (existing) {
-      gl.deleteFramebuffer(existing.framebuffer);
-      gl.deleteTexture(existing.colour);
-      gl.deleteTexture(existing.depth);
-    }
-    const texture = (internal, format, type) => {
-      const t = gl.createTexture();
-      gl.bindTexture(gl.TEXTURE_2D, t);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-      gl.texImage2D(gl.TEXTURE_2D, 0, internal, width, height, 0, format, type, null);
-      return t;
-    };
-    const colour = texture(gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE);
-    const depth = texture(gl.RGBA32F, gl.RGBA, gl.FLOAT);
-    const framebuffer = gl.createFramebuffer();
-    gl.bindFramebuffer(gl.FRAMEBUFFER, framebuffer);
-    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, colour, 0);
-    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT1, gl.TEXTURE_2D, depth, 0);
-    gl.drawBuffers([gl.COLOR_ATTACHMENT0, gl.COLOR_ATTACHMENT1]);
-    const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
-    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
-    if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`offscreen target incomplete (0x${status.toString(16)})`);
-    const target = { framebuffer, colour, depth, width, height, camera: null, complete: null };
+    if (existing) deletePictureTarget(this.gl, existing);
+    const target = { ...createPictureTarget(this.gl, width, height), camera: null, complete: null };
     this.targets[name] = target;
     return target;
   }

@@ -12,11 +12,11 @@
 //   - an unknown planet is named in a message.
 //
 // Usage: node planet_test.mjs SERVER_BINARY REPO_ROOT [--accept]
-import { spawn } from 'node:child_process';
-import { mkdtempSync, readFileSync, rmSync, writeFileSync, existsSync } from 'node:fs';
-import { tmpdir } from 'node:os';
+import { readFileSync, writeFileSync, existsSync } from 'node:fs';
 import { join } from 'node:path';
-import { chromium } from 'playwright-core';
+import {
+  Checks, comparePixels, decodePng, encodePng, launchBrowser, openViewer, startServer, waitIdle,
+} from './browser_harness.mjs';
 
 const WIDTH = 96;
 const HEIGHT = 64;
@@ -40,47 +40,6 @@ if (!serverBinary || !repoRoot) {
   process.exit(2);
 }
 
-let failures = 0;
-function check(ok, what) {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) failures += 1;
-}
-
-async function startServer() {
-  const data = mkdtempSync(join(tmpdir(), 'planet-test-'));
-  const server = spawn(serverBinary, ['--config', '/dev/null', '--port', '0', '--data-dir', data,
-    '--client-dir', join(repoRoot, 'client_web'), '--log-level', 'warn'], { cwd: repoRoot });
-  let errors = '';
-  server.stderr.on('data', (d) => { errors += d; });
-  const port = await new Promise((resolve, reject) => {
-    let out = '';
-    const timer = setTimeout(() => reject(new Error(`server did not start: ${errors}`)), 30000);
-    server.stdout.on('data', (d) => {
-      out += d;
-      const m = out.match(/listening on http:\/\/[^:]+:(\d+)/);
-      if (m) { clearTimeout(timer); resolve(Number(m[1])); }
-    });
-    server.on('exit', (code) => reject(new Error(`server exited (${code}): ${errors}`)));
-  });
-  return { port, stop: () => { server.kill('SIGTERM'); rmSync(data, { recursive: true, force: true }); } };
-}
-
-async function openViewer(browser, url) {
-  const page = await browser.newPage({ viewport: { width: WIDTH, height: HEIGHT }, deviceScaleFactor: 1 });
-  const consoleErrors = [];
-  page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
-  page.on('pageerror', (e) => consoleErrors.push(String(e)));
-  const start = Date.now();
-  await page.goto(url);
-  return { page, consoleErrors, start };
-}
-
-async function waitIdle(page) {
-  await page.waitForFunction(() => window.terrainViewer &&
-    ((window.terrainViewer.idle && window.terrainViewer.drawn > 0) || window.terrainViewer.state.error),
-    null, { timeout: 120000, polling: 50 });
-  return page.evaluate(() => window.terrainViewer.state.error);
-}
 
 // Shares of the picture: terrain (a distance was written), and among terrain pixels water
 // (blue well above red and at least green) and land.
@@ -97,74 +56,33 @@ function classify(frame) {
   return { terrain: terrain / n, water: water / n, land: land / n };
 }
 
-async function decodePng(page, bytes) {
-  const b64 = Buffer.from(bytes).toString('base64');
-  return page.evaluate(async (data) => {
-    const image = new Image();
-    image.src = `data:image/png;base64,${data}`;
-    await image.decode();
-    const c = document.createElement('canvas');
-    c.width = image.width;
-    c.height = image.height;
-    const g = c.getContext('2d');
-    g.drawImage(image, 0, 0);
-    return { width: c.width, height: c.height, rgba: Array.from(g.getImageData(0, 0, c.width, c.height).data) };
-  }, b64);
-}
-
-async function encodePng(page, rgba, width, height) {
-  const b64 = await page.evaluate(({ data, w, h }) => {
-    const c = document.createElement('canvas');
-    c.width = w;
-    c.height = h;
-    c.getContext('2d').putImageData(new ImageData(new Uint8ClampedArray(data), w, h), 0, 0);
-    return c.toDataURL('image/png').split(',')[1];
-  }, { data: rgba, w: width, h: height });
-  return Buffer.from(b64, 'base64');
-}
-
-function compare(a, b) {
-  let within = 0;
-  let worst = 0;
-  const n = a.length / 4;
-  for (let i = 0; i < n; ++i) {
-    let d = 0;
-    for (let c = 0; c < 3; ++c) d = Math.max(d, Math.abs(a[4 * i + c] - b[4 * i + c]));
-    worst = Math.max(worst, d);
-    if (d <= PIXEL_TOLERANCE) within += 1;
-  }
-  return { share: within / n, worst };
-}
-
-const { port, stop } = await startServer();
+const checks = new Checks();
+const { port, stop } = await startServer(serverBinary, repoRoot);
 const base = `http://127.0.0.1:${port}`;
-const browser = await chromium.launch({
-  executablePath: '/usr/bin/chromium',
-  args: ['--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--no-sandbox', '--disable-gpu-sandbox'],
-});
+const browser = await launchBrowser();
 const pct = (x) => `${(100 * x).toFixed(1)}%`;
 try {
   // Orbit: the whole globe, the default view.
   {
-    const { page, consoleErrors, start } = await openViewer(browser, `${base}/${ORBIT}`);
-    const error = await waitIdle(page);
+    const { page, consoleErrors, start } = await openViewer(browser, `${base}/${ORBIT}`, WIDTH, HEIGHT);
+    const error = await waitIdle(page, 120000);
     const idleMs = Date.now() - start;
-    check(!error, `orbit: the default planet is drawn${error ? ` (${error})` : ''}`);
+    checks.check(!error, `orbit: the default planet is drawn${error ? ` (${error})` : ''}`);
     const frame = await page.evaluate(() => window.terrainViewer.capture());
     const stats = await page.evaluate(() => window.terrainViewer.state.planet.view.stats);
     console.log(`     orbit: idle after ${idleMs} ms, frame ${frame.ms.toFixed(1)} ms, ${stats.tiles} tiles, ` +
       `${stats.triangles} triangles under SwiftShader (${WIDTH}×${HEIGHT})`);
     const shares = classify(frame);
-    check(frame.complete, 'orbit: every tile the view needs is loaded');
-    check(shares.terrain > 0.2 && shares.terrain < 0.8,
+    checks.check(frame.complete, 'orbit: every tile the view needs is loaded');
+    checks.check(shares.terrain > 0.2 && shares.terrain < 0.8,
       `orbit: the globe covers ${pct(shares.terrain)} of the picture, space the rest`);
-    check(shares.water > 0.03 && shares.land > 0.03, `orbit: water ${pct(shares.water)}, land ${pct(shares.land)}`);
+    checks.check(shares.water > 0.03 && shares.land > 0.03, `orbit: water ${pct(shares.water)}, land ${pct(shares.land)}`);
     const hash = await page.evaluate(() => location.hash);
-    check(/^#planet=default&lat=15&lon=20&alt=\d+/.test(hash), `orbit: the view is in the URL (${hash})`);
+    checks.check(/^#planet=default&lat=15&lon=20&alt=\d+/.test(hash), `orbit: the view is in the URL (${hash})`);
     const groups = await page.evaluate(() => [...document.querySelectorAll('#scene-picker optgroup')]
       .map((g) => [g.label, [...g.querySelectorAll('option')].map((o) => o.value)]));
     const planets = groups.find(([label]) => label === 'Planets');
-    check(planets && planets[1][0] === 'planet:default', `the picker lists the planets, default first (${JSON.stringify(planets)})`);
+    checks.check(planets && planets[1][0] === 'planet:default', `the picker lists the planets, default first (${JSON.stringify(planets)})`);
 
     // The decoder on the server's tiles (the browser un-gzips them as it would for the viewer).
     for (const [z, x, y, tolerance] of DECODED_TILES) {
@@ -198,21 +116,21 @@ try {
           mask: mesh.waterMask?.length ?? 0, points, edges: Object.values(mesh.edges).map((e) => e.length) };
       }, { z, x, y });
       const name = `tile ${z}/${x}/${y}`;
-      check(decoded.count > 0 && decoded.triangles > 0 && decoded.normals === decoded.count,
+      checks.check(decoded.count > 0 && decoded.triangles > 0 && decoded.normals === decoded.count,
         `${name}: ${decoded.count} vertices, ${decoded.triangles} triangles, a normal per vertex`);
-      check(decoded.min <= decoded.lo && decoded.hi <= decoded.max && decoded.lo - decoded.min <= 0.5,
+      checks.check(decoded.min <= decoded.lo && decoded.hi <= decoded.max && decoded.lo - decoded.min <= 0.5,
         `${name}: heights ${decoded.lo}…${decoded.hi} m within the header's ${decoded.min}…${decoded.max} m, ` +
         'the lowest within one edge quantum (0.5 m) of its minimum');
-      check(decoded.edgesOk && decoded.edges.every((n) => n === 65), `${name}: edge lists of 65 vertices on their edges`);
-      check(decoded.unit, `${name}: oct-decoded normals are unit vectors`);
-      check(decoded.mask === 1 || decoded.mask === 65536, `${name}: a water mask of ${decoded.mask} bytes`);
+      checks.check(decoded.edgesOk && decoded.edges.every((n) => n === 65), `${name}: edge lists of 65 vertices on their edges`);
+      checks.check(decoded.unit, `${name}: oct-decoded normals are unit vectors`);
+      checks.check(decoded.mask === 1 || decoded.mask === 65536, `${name}: a water mask of ${decoded.mask} bytes`);
       if (tolerance === null) continue;
       let worst = 0;
       for (const p of decoded.points) {
         const sample = await (await fetch(`${base}/api/v1/planets/default/sample?lat=${p.lat}&lon=${p.lon}`)).json();
         worst = Math.max(worst, Math.abs(sample.ground - p.h));
       }
-      check(worst <= tolerance, `${name}: vertex heights match /sample at ${decoded.points.length} vertices ` +
+      checks.check(worst <= tolerance, `${name}: vertex heights match /sample at ${decoded.points.length} vertices ` +
         `within ${worst.toFixed(3)} m (tolerance ${tolerance} m)`);
     }
 
@@ -231,9 +149,9 @@ try {
     await page.mouse.move(WIDTH / 2 + 20, HEIGHT / 2 - 30, { steps: 4 });
     await page.mouse.up();
     await page.keyboard.up('Shift');
-    const afterError = await waitIdle(page);
+    const afterError = await waitIdle(page, 120000);
     const after = await page.evaluate(() => ({ ...window.terrainViewer.state.planet.camera }));
-    check(!afterError && after.alt < before.alt * 0.7 && after.lon < before.lon && after.lat > before.lat && after.tilt > 0,
+    checks.check(!afterError && after.alt < before.alt * 0.7 && after.lon < before.lon && after.lat > before.lat && after.tilt > 0,
       `the controls zoom (alt ${before.alt} → ${after.alt.toFixed(0)}), move (${before.lat}, ${before.lon} → ` +
       `${after.lat.toFixed(2)}, ${after.lon.toFixed(2)}) and tilt (${after.tilt}°), and the view is drawn again`);
 
@@ -243,21 +161,21 @@ try {
     await page.selectOption('#scene-picker', 'butte');
     const sceneError = await page.waitForFunction(() => window.terrainViewer.state.sceneId === 'butte' &&
       window.terrainViewer.idle ? 'ok' : window.terrainViewer.state.error, null, { timeout: 120000, polling: 50 });
-    check(await sceneError.jsonValue() === 'ok', 'the picker switches from the planet to a scene, which is drawn');
+    checks.check(await sceneError.jsonValue() === 'ok', 'the picker switches from the planet to a scene, which is drawn');
     await page.selectOption('#scene-picker', 'planet:default');
-    const back = await waitIdle(page);
+    const back = await waitIdle(page, 120000);
     const mode = await page.evaluate(() => window.terrainViewer.state.planet?.id);
-    check(!back && mode === 'default', 'and back to the planet');
-    check(consoleErrors.length === 0, `orbit: no console errors${consoleErrors.length ? `: ${consoleErrors.join(' | ')}` : ''}`);
+    checks.check(!back && mode === 'default', 'and back to the planet');
+    checks.check(consoleErrors.length === 0, `orbit: no console errors${consoleErrors.length ? `: ${consoleErrors.join(' | ')}` : ''}`);
     await page.close();
   }
 
   // Low and tilted: 2 km above a plateau near a coast, looking north at the horizon.
   {
-    const { page, consoleErrors, start } = await openViewer(browser, `${base}/${LOW}`);
-    const error = await waitIdle(page);
+    const { page, consoleErrors, start } = await openViewer(browser, `${base}/${LOW}`, WIDTH, HEIGHT);
+    const error = await waitIdle(page, 120000);
     const idleMs = Date.now() - start;
-    check(!error, `low view: drawn${error ? ` (${error})` : ''}`);
+    checks.check(!error, `low view: drawn${error ? ` (${error})` : ''}`);
     const frame = await page.evaluate(() => window.terrainViewer.capture());
     const info = await page.evaluate(() => {
       const p = window.terrainViewer.state.planet;
@@ -266,52 +184,52 @@ try {
     console.log(`     low view: idle after ${idleMs} ms, frame ${frame.ms.toFixed(1)} ms, ${info.stats.tiles} tiles, ` +
       `${info.stats.triangles} triangles under SwiftShader (${WIDTH}×${HEIGHT})`);
     const shares = classify(frame);
-    check(frame.complete, 'low view: every tile the view needs is loaded');
-    check(shares.terrain > 0.5 && shares.terrain < 0.97, `low view: terrain ${pct(shares.terrain)}, sky above the horizon`);
-    check(info.ground > 1000 && info.ground < info.alt, `low view: the camera (${info.alt} m) is above the ground (${info.ground.toFixed(0)} m)`);
-    check(consoleErrors.length === 0, `low view: no console errors${consoleErrors.length ? `: ${consoleErrors.join(' | ')}` : ''}`);
+    checks.check(frame.complete, 'low view: every tile the view needs is loaded');
+    checks.check(shares.terrain > 0.5 && shares.terrain < 0.97, `low view: terrain ${pct(shares.terrain)}, sky above the horizon`);
+    checks.check(info.ground > 1000 && info.ground < info.alt, `low view: the camera (${info.alt} m) is above the ground (${info.ground.toFixed(0)} m)`);
+    checks.check(consoleErrors.length === 0, `low view: no console errors${consoleErrors.length ? `: ${consoleErrors.join(' | ')}` : ''}`);
     await page.close();
   }
 
   // The golden view: a coast from 120 km, tilted.
   {
-    const { page, consoleErrors } = await openViewer(browser, `${base}/${GOLDEN}`);
-    const error = await waitIdle(page);
-    check(!error, `golden view: drawn${error ? ` (${error})` : ''}`);
+    const { page, consoleErrors } = await openViewer(browser, `${base}/${GOLDEN}`, WIDTH, HEIGHT);
+    const error = await waitIdle(page, 120000);
+    checks.check(!error, `golden view: drawn${error ? ` (${error})` : ''}`);
     const frame = await page.evaluate(() => window.terrainViewer.capture());
     const shares = classify(frame);
-    check(shares.water > 0.05 && shares.land > 0.05, `golden view: water ${pct(shares.water)}, land ${pct(shares.land)}`);
+    checks.check(shares.water > 0.05 && shares.land > 0.05, `golden view: water ${pct(shares.water)}, land ${pct(shares.land)}`);
     const goldenPath = join(repoRoot, 'tests/client/golden', 'planet-default.png');
     if (accept) {
       writeFileSync(goldenPath, await encodePng(page, frame.rgba, WIDTH, HEIGHT));
       console.log(`     wrote ${goldenPath}`);
     } else if (!existsSync(goldenPath)) {
-      check(false, `golden screenshot ${goldenPath} exists (run scripts/accept-client-goldens.sh)`);
+      checks.check(false, `golden screenshot ${goldenPath} exists (run scripts/accept-client-goldens.sh)`);
     } else {
       const golden = await decodePng(page, readFileSync(goldenPath));
-      const vsGolden = compare(frame.rgba, golden.rgba);
-      check(vsGolden.share >= PIXEL_SHARE,
+      const vsGolden = comparePixels(frame.rgba, golden.rgba, PIXEL_TOLERANCE);
+      checks.check(vsGolden.share >= PIXEL_SHARE,
         `golden view: matches its golden screenshot on ${pct(vsGolden.share)} of pixels (worst ${vsGolden.worst})`);
     }
-    check(consoleErrors.length === 0, `golden view: no console errors${consoleErrors.length ? `: ${consoleErrors.join(' | ')}` : ''}`);
+    checks.check(consoleErrors.length === 0, `golden view: no console errors${consoleErrors.length ? `: ${consoleErrors.join(' | ')}` : ''}`);
     await page.close();
   }
 
   // An unknown planet: a message naming it.
   {
-    const { page } = await openViewer(browser, `${base}/#planet=no-such-planet`);
-    const message = await waitIdle(page);
-    check(/no planet "no-such-planet"/.test(message ?? ''), `an unknown planet is named in a message (${message})`);
+    const { page } = await openViewer(browser, `${base}/#planet=no-such-planet`, WIDTH, HEIGHT);
+    const message = await waitIdle(page, 120000);
+    checks.check(/no planet "no-such-planet"/.test(message ?? ''), `an unknown planet is named in a message (${message})`);
     await page.close();
     const hex = 'a'.repeat(64);
-    const missing = await openViewer(browser, `${base}/#planet=${hex}`);
-    const message404 = await waitIdle(missing.page);
-    check(message404 === `There is no planet "${hex}".`, `an unknown planet id is named in a message (${message404})`);
+    const missing = await openViewer(browser, `${base}/#planet=${hex}`, WIDTH, HEIGHT);
+    const message404 = await waitIdle(missing.page, 120000);
+    checks.check(message404 === `There is no planet "${hex}".`, `an unknown planet id is named in a message (${message404})`);
     await missing.page.close();
   }
 } finally {
   await browser.close();
   stop();
 }
-console.log(failures === 0 ? 'all planet checks passed' : `${failures} planet check(s) failed`);
-process.exit(failures === 0 ? 0 : 1);
+console.log(checks.failures === 0 ? 'all planet checks passed' : `${checks.failures} planet checks.check(s) failed`);
+process.exit(checks.failures === 0 ? 0 : 1);
