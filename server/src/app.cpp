@@ -1,5 +1,7 @@
 #include "server/app.hpp"
 
+#include "app_support.hpp"
+
 #include <algorithm>
 #include <bit>
 #include <charconv>
@@ -26,6 +28,13 @@
 namespace server {
 
 std::string_view openapi_document();  // generated from server/resources/openapi.json
+
+bool detail::valid_id(std::string_view id) {
+  if (id.empty() || id.size() > 64) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '_';
+  });
+}
 
 namespace {
 
@@ -125,12 +134,7 @@ std::optional<double> parse_double(std::string_view text) {
   return v;
 }
 
-bool valid_id(std::string_view id) {
-  if (id.empty() || id.size() > 64) return false;
-  return std::all_of(id.begin(), id.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '_';
-  });
-}
+using detail::valid_id;
 
 std::string slug(std::string_view name) {
   std::string s;
@@ -471,15 +475,6 @@ Response problem(const Request& request, http::status status, std::string_view t
   return r;
 }
 
-struct App::Target {
-  std::vector<std::string> segments;
-  std::map<std::string, std::string> query;
-  std::string get(const std::string& key, const std::string& fallback = "") const {
-    auto it = query.find(key);
-    return it == query.end() ? fallback : it->second;
-  }
-};
-
 App::App(Config config, std::unique_ptr<Store> store)
     : config_(std::move(config)),
       store_(std::move(store)),
@@ -520,8 +515,10 @@ std::string_view App::route_label(const Request& request) {
     }
     return "planet";
   }
-  static constexpr std::array<std::pair<std::string_view, std::string_view>, 10> kinds = {{
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 12> kinds = {{
       {"/tiles/", "tiles"},
+      {"/live", "live"},
+      {"/changes", "changes"},
       {"/render.png", "render"},
       {"/depth.bin", "depth"},
       {"/trace.json", "trace.json"},
@@ -683,6 +680,19 @@ Outcome App::route(const Request& request, const Target& target) {
         if (!read) return not_allowed("GET, HEAD");
         return versions(request, ref);
       }
+      if (s.size() == 5 && s[4] == "changes") {
+        if (!read) return not_allowed("GET, HEAD");
+        return scene_changes(request, ref, target);
+      }
+      if (s.size() == 5 && s[4] == "live") {
+        // Upgrades are taken by the session layer before routing; this is a plain request.
+        Response r = problem(request, http::status::upgrade_required, "WebSocket required",
+                             "the live channel is a WebSocket: connect with Upgrade: websocket "
+                             "(docs/live.md)");
+        r.set(http::field::upgrade, "websocket");
+        r.set(http::field::connection, "Upgrade");
+        return r;
+      }
       if (!read) return not_allowed("GET, HEAD");
       return scene_product(request, ref, std::vector<std::string>(s.begin() + 4, s.end()), target);
     }
@@ -736,14 +746,8 @@ Response App::authorize(const Request& request) const {
     r.set(http::field::www_authenticate, "Bearer");
     return r;
   }
-  const std::string expected = "Bearer " + config_.write_token;
   const std::string_view given(it->value().data(), it->value().size());
-  // Constant-time comparison: the token must not leak through response timing.
-  unsigned diff = given.size() == expected.size() ? 0u : 1u;
-  for (std::size_t i = 0; i < given.size(); ++i) {
-    diff |= static_cast<unsigned>(given[i] ^ expected[i % expected.size()]);
-  }
-  if (diff != 0) {
+  if (!given.starts_with("Bearer ") || !token_matches(given.substr(7))) {
     return problem(request, http::status::forbidden, "Forbidden", "the write token is wrong");
   }
   Response ok{http::status::ok, request.version()};
@@ -923,6 +927,9 @@ Response App::put_scene(const Request& request, const std::string& id) {
     return problem(request, http::status::bad_request, "Invalid scene", scene.error().message,
                    scene.error().pointer);
   }
+  // The live channel's lock puts this version among live edits in one order (docs/live.md).
+  auto channel = live_.channel(id);
+  auto held = channel->lock();
   StoreResult<SceneVersion> head = store_->head(id);
   if (!head) return store_problem(request, head.error());
   std::optional<std::int64_t> expected;
@@ -942,7 +949,8 @@ Response App::put_scene(const Request& request, const std::string& id) {
   next.hash = (*scene)->hash;
   next.canonical_json = (*scene)->canonical_text();
   next.author = "api";
-  StoreResult<SceneVersion> stored = store_->add_version(id, next, expected);
+  StoreResult<SceneVersion> stored =
+      commit_version(request, *channel, id, std::move(next), expected);
   if (!stored) {
     if (stored.error().kind == StoreError::Kind::conflict) {
       return problem(request, http::status::precondition_failed, "Version mismatch",
@@ -950,7 +958,6 @@ Response App::put_scene(const Request& request, const std::string& id) {
     }
     return store_problem(request, stored.error());
   }
-  forget_head(id);
   Response r =
       json_response(request, http::status::ok,
                     {{"id", stored->scene_id},

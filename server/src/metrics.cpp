@@ -71,6 +71,16 @@ std::string Metrics::prometheus(const ProductCache& cache) const {
   out << "# HELP terrain_generation_rejected_total Requests refused with 503 (queue full).\n"
          "# TYPE terrain_generation_rejected_total counter\nterrain_generation_rejected_total "
       << rejected.load() << "\n";
+  out << "# HELP terrain_live_connections Open live-editing WebSockets.\n"
+         "# TYPE terrain_live_connections gauge\nterrain_live_connections "
+      << live_connections.load() << "\n";
+  out << "# HELP terrain_live_oversize_total Live connections closed for an oversize message "
+         "(1009).\n# TYPE terrain_live_oversize_total counter\nterrain_live_oversize_total "
+      << live_oversize.load() << "\n";
+  out << "# HELP terrain_live_slow_readers_total Live connections cut because they fell too "
+         "far behind.\n# TYPE terrain_live_slow_readers_total counter\n"
+         "terrain_live_slow_readers_total "
+      << live_slow_readers.load() << "\n";
   out << "# TYPE terrain_cache_hits_total counter\nterrain_cache_hits_total " << cache.hits()
       << "\n# TYPE terrain_cache_misses_total counter\nterrain_cache_misses_total "
       << cache.misses() << "\n# TYPE terrain_cache_evictions_total counter\n"

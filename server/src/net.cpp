@@ -7,11 +7,13 @@
 #include <cmath>
 #include <csignal>
 
+#include "live_socket.hpp"
 #include "server/log.hpp"
 
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
+#include <boost/beast/websocket/rfc6455.hpp>
 
 #include <chrono>
 #include <iostream>
@@ -73,6 +75,7 @@ struct HttpServer::State {
   tcp::acceptor acceptor;  // on workers[0], which runs the accept loop and closes it
   std::atomic<bool> stopping{false};
   std::size_t next_worker = 0;
+  LiveSessions live_sessions;
 
   State(App& a, const Config& c)
       : app(a),
@@ -260,6 +263,27 @@ struct HttpServer::State {
       // Body limits depend on the route; refuse before reading a byte of an oversized body.
       const auto& header = header_parser.get();
       const std::string_view target(header.target().data(), header.target().size());
+      if (beast::websocket::is_upgrade(header) && App::is_live_target(target)) {
+        // A live channel: the connection leaves HTTP for good (docs/live.md).
+        Request upgrade(std::move(header_parser.release().base()));
+        auto opened = app.live_open(upgrade);
+        const double seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+        if (!opened) {
+          Response refusal = std::move(opened).error();
+          app.add_cors(upgrade, refusal);
+          refusal.keep_alive(false);
+          refusal.content_length(refusal.body().size());
+          app.metrics().request("live", static_cast<int>(refusal.result_int()), seconds);
+          co_await write(*stream, deadline, refusal);
+          break;
+        }
+        app.metrics().request("live", 101, seconds);
+        if (stopping) break;
+        co_await serve_live(std::move(*stream), std::move(upgrade), std::move(opened).value(), app,
+                            live_sessions);
+        co_return;
+      }
       const std::int64_t limit =
           target.starts_with("/api/v1/images") ? config.image_body_limit : config.scene_body_limit;
       const auto declared = header_parser.content_length();
@@ -417,6 +441,7 @@ void HttpServer::run() {
 void HttpServer::stop() {
   State* s = state_.get();
   s->stopping = true;
+  s->live_sessions.close_all();
   asio::post(s->workers[0]->io, [s] {
     boost::system::error_code ignored;
     s->acceptor.close(ignored);

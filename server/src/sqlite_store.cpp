@@ -54,6 +54,10 @@ constexpr const char* kMigrations[] = {
       created_ms INTEGER NOT NULL
     );
     )sql",
+    // 3: the JSON Patch of versions made by live edits (NULL for whole bodies).
+    R"sql(
+    ALTER TABLE versions ADD COLUMN ops TEXT;
+    )sql",
 };
 
 std::int64_t now_ms() {
@@ -78,6 +82,10 @@ class Statement {
   }
   Statement& bind(int i, std::int64_t v) {
     sqlite3_bind_int64(stmt_, i, v);
+    return *this;
+  }
+  Statement& bind_null(int i) {
+    sqlite3_bind_null(stmt_, i);
     return *this;
   }
   Statement& bind_blob(int i, const std::vector<std::uint8_t>& bytes) {
@@ -209,7 +217,7 @@ class SqliteStore final : public Store {
   StoreResult<SceneVersion> head(const std::string& id) override {
     std::lock_guard lock(mutex_);
     return select_version(
-        "SELECT v.scene_id, v.version, v.hash, v.name, v.body, v.author, v.created_ms "
+        "SELECT v.scene_id, v.version, v.hash, v.name, v.body, v.author, v.created_ms, v.ops "
         "FROM scenes s JOIN versions v ON v.scene_id = s.id AND v.version = s.head "
         "WHERE s.id = ?",
         id, std::nullopt, "no scene '" + id + "'");
@@ -218,7 +226,7 @@ class SqliteStore final : public Store {
   StoreResult<SceneVersion> version(const std::string& id, std::int64_t number) override {
     std::lock_guard lock(mutex_);
     return select_version(
-        "SELECT scene_id, version, hash, name, body, author, created_ms FROM versions "
+        "SELECT scene_id, version, hash, name, body, author, created_ms, ops FROM versions "
         "WHERE scene_id = ? AND version = ?",
         id, number, "no version " + std::to_string(number) + " of scene '" + id + "'");
   }
@@ -227,7 +235,7 @@ class SqliteStore final : public Store {
                                             const std::string& hash) override {
     std::lock_guard lock(mutex_);
     Statement q(db_,
-                "SELECT scene_id, version, hash, name, body, author, created_ms FROM versions "
+                "SELECT scene_id, version, hash, name, body, author, created_ms, ops FROM versions "
                 "WHERE scene_id = ? AND hash = ? ORDER BY version DESC LIMIT 1");
     q.bind(1, id).bind(2, hash);
     return read_version(q, "no version of scene '" + id + "' has hash " + hash);
@@ -247,8 +255,23 @@ class SqliteStore final : public Store {
     std::vector<SceneVersion> out;
     int rc = 0;
     while ((rc = q.step()) == SQLITE_ROW) {
-      out.push_back({q.text(0), q.integer(1), q.text(2), q.text(3), "", q.text(4), q.integer(5)});
+      out.push_back(
+          {q.text(0), q.integer(1), q.text(2), q.text(3), "", q.text(4), q.integer(5), ""});
     }
+    if (rc != SQLITE_DONE) return failure("cannot list versions of '" + id + "'");
+    return out;
+  }
+
+  StoreResult<std::vector<SceneVersion>> versions_after(const std::string& id, std::int64_t after,
+                                                        std::int64_t limit) override {
+    std::lock_guard lock(mutex_);
+    Statement q(db_,
+                "SELECT scene_id, version, hash, name, body, author, created_ms, ops FROM versions "
+                "WHERE scene_id = ? AND version > ? ORDER BY version LIMIT ?");
+    q.bind(1, id).bind(2, after).bind(3, limit);
+    std::vector<SceneVersion> out;
+    int rc = 0;
+    while ((rc = q.step()) == SQLITE_ROW) out.push_back(row_version(q));
     if (rc != SQLITE_DONE) return failure("cannot list versions of '" + id + "'");
     return out;
   }
@@ -339,11 +362,17 @@ class SqliteStore final : public Store {
   }
 
   bool insert_version(const SceneVersion& v) {
-    Statement q(db_,
-                "INSERT INTO versions (scene_id, version, hash, name, body, author, created_ms) "
-                "VALUES (?, ?, ?, ?, ?, ?, ?)");
+    Statement q(
+        db_,
+        "INSERT INTO versions (scene_id, version, hash, name, body, author, created_ms, ops) "
+        "VALUES (?, ?, ?, ?, ?, ?, ?, ?)");
     q.bind(1, v.scene_id).bind(2, v.version).bind(3, v.hash).bind(4, v.name);
     q.bind(5, v.canonical_json).bind(6, v.author).bind(7, v.created_ms);
+    if (v.ops_json.empty()) {
+      q.bind_null(8);
+    } else {
+      q.bind(8, v.ops_json);
+    }
     return q.step() == SQLITE_DONE;
   }
 
@@ -351,8 +380,12 @@ class SqliteStore final : public Store {
     const int rc = q.step();
     if (rc == SQLITE_DONE) return StoreError{Kind::not_found, missing};
     if (rc != SQLITE_ROW) return failure("cannot read a version");
-    return SceneVersion{q.text(0), q.integer(1), q.text(2),   q.text(3),
-                        q.text(4), q.text(5),    q.integer(6)};
+    return row_version(q);
+  }
+
+  static SceneVersion row_version(Statement& q) {
+    return SceneVersion{q.text(0), q.integer(1), q.text(2),    q.text(3),
+                        q.text(4), q.text(5),    q.integer(6), q.text(7)};
   }
 
   StoreResult<SceneVersion> select_version(const char* sql, const std::string& id,

@@ -6,14 +6,18 @@
 #include <chrono>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <unordered_map>
+
+#include <nlohmann/json.hpp>
 
 #include "planet/planet.hpp"
 #include "server/cache.hpp"
 #include "server/config.hpp"
 #include "server/disk_cache.hpp"
 #include "server/http.hpp"
+#include "server/live.hpp"
 #include "server/metrics.hpp"
 #include "server/static_files.hpp"
 #include "server/store.hpp"
@@ -32,6 +36,17 @@ struct LoadedVersion {
 struct LoadedPlanet {
   StoredPlanet stored;
   std::shared_ptr<const planet::Planet> planet;
+};
+
+/// What the live protocol (docs/live.md) remembers of one connection.
+struct LiveConnection {
+  std::string scene;
+  bool subscribed = false;
+  bool can_edit = false;  ///< the upgrade request or `subscribe` carried the write token
+  std::string author = "anonymous";
+  double edit_tokens = 0.0;  ///< the edit rate limit's token bucket
+  std::chrono::steady_clock::time_point refilled{};
+  std::shared_ptr<LiveSubscriber> self;  ///< where replies and events go
 };
 
 class App {
@@ -60,6 +75,18 @@ class App {
   /// Adds the CORS headers the configuration allows for this request's Origin.
   void add_cors(const Request& request, Response& response) const;
 
+  // Live editing (docs/live.md; app_live.cpp).
+  /// True when a request's target is a scene's live channel.
+  static bool is_live_target(std::string_view target);
+  /// Checks a WebSocket upgrade to a live channel: the connection's state, or the response that
+  /// refuses it (400 bad id, 404 unknown scene, 403 wrong token, 503 too many subscribers).
+  terrain::Result<LiveConnection, Response> live_open(const Request& request);
+  /// Handles one message of a live connection; replies go to connection.self.
+  void live_message(LiveConnection& connection, std::string_view text);
+  /// The connection ended: it leaves its scene's channel.
+  void live_close(LiveConnection& connection);
+  LiveHub& live() { return live_; }
+
  private:
   struct Target;
   Outcome route(const Request& request, const Target& target);
@@ -78,6 +105,21 @@ class App {
   Outcome trace_bundle(const Request& request, const LoadedVersion& loaded, bool pinned);
   Response trace_glsl(const Request& request) const;
   Response authorize(const Request& request) const;  // result() == ok when allowed
+  bool token_matches(std::string_view given) const;  // constant time
+  Response scene_changes(const Request& request, const std::string& id, const Target& target);
+
+  /// Stores the next version of a scene and publishes its event to the live channel, whose
+  /// lock the caller holds (so versions reach subscribers in order).
+  StoreResult<SceneVersion> commit_version(const Request& context, LiveHub::Channel& channel,
+                                           const std::string& id, SceneVersion next,
+                                           std::optional<std::int64_t> expected_head);
+  /// The `version` event of `current`, its changes counted from `previous`.
+  nlohmann::json version_event(const Request& context, const SceneVersion& current,
+                               const SceneVersion& previous);
+  /// What differs between two versions' tiles (docs/live.md, `changed`).
+  nlohmann::json changed_between(const LoadedVersion& before, const LoadedVersion& after);
+  void live_subscribe(LiveConnection& connection, const nlohmann::json& message);
+  void live_edit(LiveConnection& connection, const nlohmann::json& message);
 
   Response list_planets(const Request& request);
   Response create_planet(const Request& request);
@@ -110,6 +152,8 @@ class App {
   std::unordered_map<std::string, std::pair<LoadedVersion, std::chrono::steady_clock::time_point>>
       resolved_;
   void forget_head(const std::string& id);
+
+  LiveHub live_;
 
   mutable std::mutex planets_mutex_;
   std::unordered_map<std::string, LoadedPlanet> planets_;  // by id (bounded; ids never go stale)

@@ -49,6 +49,15 @@ struct Config {
   int body_timeout_ms = 30'000;
   int request_timeout_ms = 60'000;
   int idle_timeout_ms = 60'000;
+  // live editing (docs/live.md)
+  std::int64_t live_max_message_bytes = 1ll << 20;  ///< larger messages close with 1009
+  int live_handshake_timeout_ms = 10'000;           ///< time to send `subscribe`
+  int live_ping_interval_ms = 20'000;  ///< idle connections are pinged; twice this closes them
+  std::int64_t live_queue_bytes = 4ll << 20;  ///< outgoing backlog before a slow reader is cut
+  int live_queue_messages = 1024;
+  double live_edits_per_second = 10.0;  ///< per connection, token bucket
+  int live_edit_burst = 20;
+  int live_max_subscribers = 256;  ///< per scene
   // logging
   std::string log_level = "info";  ///< error, warn, info, debug
 

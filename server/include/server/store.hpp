@@ -36,6 +36,9 @@ struct SceneVersion {
   std::string canonical_json;
   std::string author;
   std::int64_t created_ms = 0;  ///< Unix time in milliseconds
+  /// The JSON Patch a live edit applied to make this version (docs/live.md); empty when the
+  /// version came whole (POST, PUT).
+  std::string ops_json;
 };
 
 /// A scene and its head version, without the body.
@@ -88,6 +91,10 @@ class Store {
                                                     const std::string& hash) = 0;
   /// Every version's metadata (bodies left empty), oldest first.
   virtual StoreResult<std::vector<SceneVersion>> versions(const std::string& id) = 0;
+  /// Whole versions (bodies and ops) numbered above `after`, oldest first, at most `limit`.
+  virtual StoreResult<std::vector<SceneVersion>> versions_after(const std::string& id,
+                                                                std::int64_t after,
+                                                                std::int64_t limit) = 0;
   /// Stores a blob under its hash (idempotent).
   virtual StoreResult<bool> put_blob(const Blob& blob) = 0;
   virtual StoreResult<Blob> blob(const std::string& hash) = 0;

@@ -1,0 +1,64 @@
+// The fan-out of live editing (docs/live.md): per scene, the connections that follow it and the
+// lock that puts every new version and every new subscriber in one order. Transport-free: the
+// WebSocket sessions (live_socket.cpp) implement LiveSubscriber.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace server {
+
+/// A connection following a scene.
+class LiveSubscriber {
+ public:
+  virtual ~LiveSubscriber() = default;
+  /// Queues a message for the connection, in call order. Called with the scene's channel locked,
+  /// from any thread: it must not block (a connection that cannot keep up closes itself).
+  virtual void deliver(std::shared_ptr<const std::string> message) = 0;
+};
+
+/// Scenes' channels. Thread-safe.
+class LiveHub {
+ public:
+  /// One scene's subscribers and its recent version events.
+  class Channel {
+   public:
+    /// Held while a version of the scene is stored and published, and while a subscriber joins:
+    /// so every subscriber gets every version once, in version order, without gaps.
+    std::unique_lock<std::mutex> lock() { return std::unique_lock(mutex_); }
+
+    // The members below need the lock held.
+    /// Adds a subscriber unless `max` already follow the scene.
+    bool join(std::shared_ptr<LiveSubscriber> subscriber, int max);
+    void leave(const LiveSubscriber* subscriber);
+    /// Delivers a version event to every subscriber and remembers it for catch-up.
+    void publish(std::int64_t version, std::shared_ptr<const std::string> event);
+    /// The remembered event of a version, or null.
+    std::shared_ptr<const std::string> recent(std::int64_t version) const;
+    std::size_t size() const { return subscribers_.size(); }
+
+   private:
+    std::mutex mutex_;
+    std::vector<std::weak_ptr<LiveSubscriber>> subscribers_;
+    std::deque<std::pair<std::int64_t, std::shared_ptr<const std::string>>> recent_;
+  };
+
+  /// Versions whose events are kept for catch-up without rereading the store.
+  static constexpr std::size_t kRecentEvents = 256;
+
+  /// The channel of a scene (created on first use; channels live as long as the hub).
+  std::shared_ptr<Channel> channel(const std::string& scene);
+  /// Subscribers of every scene together (for /metrics).
+  std::size_t subscribers();
+
+ private:
+  std::mutex mutex_;
+  std::unordered_map<std::string, std::shared_ptr<Channel>> channels_;
+};
+
+}  // namespace server

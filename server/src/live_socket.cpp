@@ -1,0 +1,201 @@
+#include "live_socket.hpp"
+
+#include <atomic>
+#include <deque>
+
+#include <boost/asio.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+
+#include "server/log.hpp"
+
+namespace server {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace websocket = beast::websocket;
+using tcp = asio::ip::tcp;
+using asio::awaitable;
+using asio::use_awaitable;
+
+class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_this<LiveSocket> {
+ public:
+  LiveSocket(tcp::socket socket, const Config& config)
+      : ws_(std::move(socket)),
+        wake_(ws_.get_executor()),
+        queue_bytes_(config.live_queue_bytes),
+        queue_messages_(config.live_queue_messages) {
+    wake_.expires_at(asio::steady_timer::time_point::max());
+  }
+
+  // Any thread: counts the message against the connection's backlog, then hands it to the
+  // connection's thread. A connection that owes too much is cut instead of buffering more.
+  void deliver(std::shared_ptr<const std::string> message) override {
+    const auto size = static_cast<std::int64_t>(message->size());
+    const std::int64_t bytes = owed_bytes_.fetch_add(size) + size;
+    const int messages = owed_messages_.fetch_add(1) + 1;
+    if (bytes > queue_bytes_ || messages > queue_messages_) {
+      owed_bytes_.fetch_sub(size);
+      owed_messages_.fetch_sub(1);
+      if (!overflowed_.exchange(true)) {
+        asio::post(ws_.get_executor(), [self = shared_from_this()] { self->cut("slow reader"); });
+      }
+      return;
+    }
+    asio::post(ws_.get_executor(), [self = shared_from_this(), m = std::move(message)]() mutable {
+      self->queue_.push_back(std::move(m));
+      self->wake_.cancel_one();
+    });
+  }
+
+  websocket::stream<tcp::socket>& ws() { return ws_; }
+  bool subscribed = false;  ///< the connection's thread only
+  bool overflowed() const { return overflowed_; }
+
+  // The connection's thread: sends queued messages in order until the connection ends. Holds
+  // the session, which therefore outlives every operation the loop has started.
+  static awaitable<void> write_loop(std::shared_ptr<LiveSocket> self) {
+    while (self->open_) {
+      if (self->queue_.empty()) {
+        boost::system::error_code ignored;
+        co_await self->wake_.async_wait(asio::redirect_error(use_awaitable, ignored));
+        continue;
+      }
+      std::shared_ptr<const std::string> message = self->queue_.front();
+      boost::system::error_code ec;
+      self->ws_.text(true);
+      co_await self->ws_.async_write(asio::buffer(*message),
+                                     asio::redirect_error(use_awaitable, ec));
+      self->queue_.pop_front();
+      self->owed_bytes_.fetch_sub(static_cast<std::int64_t>(message->size()));
+      self->owed_messages_.fetch_sub(1);
+      if (ec) break;
+    }
+    self->queue_.clear();
+  }
+
+  /// Ends the connection without a close handshake (a full send buffer would hold it back).
+  void cut(std::string_view why) {
+    if (!open_) return;
+    open_ = false;
+    log(LogLevel::info, "live connection cut", {{"why", std::string(why)}});
+    boost::system::error_code ignored;
+    beast::get_lowest_layer(ws_).close(ignored);
+    wake_.cancel();
+  }
+
+  /// Closes with a close frame (shutdown, policy); the reader then ends. A peer that does not
+  /// answer the close within a second is cut, so a shutdown never waits on a silent client.
+  void close(websocket::close_code code, std::string_view reason) {
+    if (!open_ || closing_) return;
+    closing_ = true;
+    auto give_up = std::make_shared<asio::steady_timer>(ws_.get_executor());
+    give_up->expires_after(std::chrono::seconds(1));
+    give_up->async_wait([weak = weak_from_this()](const boost::system::error_code& ec) {
+      if (auto self = weak.lock(); self && !ec) self->cut("no answer to close");
+    });
+    asio::co_spawn(
+        ws_.get_executor(),
+        [self = shared_from_this(), code, why = std::string(reason), give_up]() -> awaitable<void> {
+          boost::system::error_code ec;
+          co_await self->ws_.async_close(websocket::close_reason(code, why),
+                                         asio::redirect_error(use_awaitable, ec));
+          give_up->cancel();
+          if (ec) self->cut("close failed");
+        },
+        asio::detached);
+  }
+
+  void stop_writer() {
+    open_ = false;
+    wake_.cancel();
+  }
+
+ private:
+  websocket::stream<tcp::socket> ws_;
+  asio::steady_timer wake_;                               // cancelled to wake the writer
+  std::deque<std::shared_ptr<const std::string>> queue_;  // the connection's thread only
+  std::atomic<std::int64_t> owed_bytes_{0};
+  std::atomic<int> owed_messages_{0};
+  std::atomic<bool> overflowed_{false};
+  bool open_ = true;
+  bool closing_ = false;
+  const std::int64_t queue_bytes_;
+  const int queue_messages_;
+};
+
+void LiveSessions::add(const std::shared_ptr<LiveSocket>& session) {
+  std::lock_guard lock(mutex_);
+  std::erase_if(sessions_, [](const auto& weak) { return weak.expired(); });
+  sessions_.push_back(session);
+}
+
+void LiveSessions::close_all() {
+  std::lock_guard lock(mutex_);
+  for (const auto& weak : sessions_) {
+    if (auto session = weak.lock()) {
+      asio::post(session->ws().get_executor(), [session] {
+        session->close(websocket::close_code::going_away, "server shutting down");
+      });
+    }
+  }
+}
+
+awaitable<void> serve_live(tcp::socket socket, Request upgrade, LiveConnection connection, App& app,
+                           LiveSessions& sessions) {
+  const Config& config = app.config();
+  auto session = std::make_shared<LiveSocket>(std::move(socket), config);
+  auto& ws = session->ws();
+  // Beast pings a connection that has been silent for half the idle time and drops it when the
+  // whole idle time passes without a frame (a pong counts).
+  websocket::stream_base::timeout timeouts{};
+  timeouts.handshake_timeout = std::chrono::milliseconds(config.live_handshake_timeout_ms);
+  timeouts.idle_timeout = std::chrono::milliseconds(2ll * config.live_ping_interval_ms);
+  timeouts.keep_alive_pings = true;
+  ws.set_option(timeouts);
+  ws.read_message_max(static_cast<std::size_t>(config.live_max_message_bytes));
+  ws.set_option(websocket::stream_base::decorator(
+      [](websocket::response_type& r) { r.set(http::field::server, "terrain-server"); }));
+  boost::system::error_code ec;
+  co_await ws.async_accept(upgrade, asio::redirect_error(use_awaitable, ec));
+  if (ec) co_return;
+  sessions.add(session);
+  connection.self = session;
+  app.metrics().live_connections.fetch_add(1);
+
+  asio::co_spawn(ws.get_executor(), LiveSocket::write_loop(session), asio::detached);
+  // The first message must be `subscribe`, and soon.
+  asio::steady_timer subscribe_deadline(ws.get_executor());
+  subscribe_deadline.expires_after(std::chrono::milliseconds(config.live_handshake_timeout_ms));
+  subscribe_deadline.async_wait(
+      [weak = std::weak_ptr<LiveSocket>(session)](const boost::system::error_code& waited) {
+        if (waited) return;
+        if (auto s = weak.lock(); s && !s->subscribed) {
+          s->close(websocket::close_code::policy_error, "no subscribe in time");
+        }
+      });
+
+  beast::flat_buffer buffer;
+  while (true) {
+    co_await ws.async_read(buffer, asio::redirect_error(use_awaitable, ec));
+    if (ec) break;
+    if (!ws.got_text()) {
+      connection.self->deliver(std::make_shared<const std::string>(
+          R"({"type":"error","status":400,"title":"Invalid message","detail":"messages are JSON text frames"})"));
+    } else {
+      const auto data = buffer.cdata();
+      app.live_message(connection,
+                       std::string_view(static_cast<const char*>(data.data()), data.size()));
+      session->subscribed = connection.subscribed;
+    }
+    buffer.consume(buffer.size());
+  }
+  subscribe_deadline.cancel();
+  if (ec == websocket::error::message_too_big) app.metrics().live_oversize.fetch_add(1);
+  if (session->overflowed()) app.metrics().live_slow_readers.fetch_add(1);
+  app.live_close(connection);
+  session->stop_writer();
+  app.metrics().live_connections.fetch_sub(1);
+}
+
+}  // namespace server

@@ -1,0 +1,418 @@
+// Live editing over WebSockets (docs/live.md), against the real server on loopback: versions in
+// one order for every subscriber, rebasing and conflicts, catch-up after a reconnect, refused
+// edits that change nothing, and the limits (1009, slow readers, rate, subscribers, timeouts).
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <thread>
+
+#include "http_harness.hpp"
+#include "live_client.hpp"
+
+namespace {
+
+using namespace http_test;
+
+// Four discs in a blend, one per quadrant: edits of different discs do not conflict.
+std::string quad_scene() {
+  json children = json::array();
+  for (const auto& [x, y] : {std::pair{-1000, -1000}, {1000, -1000}, {-1000, 1000}, {1000, 1000}}) {
+    children.push_back({{"type", "disc"}, {"center", {x, y}}, {"radius", 500}, {"elevation", 100}});
+  }
+  return json{{"format", "terrain-scene/1"},
+              {"name", "Live quad"},
+              {"seed", 1},
+              {"extent", {{"min", {-2000, -2000}}, {"max", {2000, 2000}}}},
+              {"root", {{"type", "blend"}, {"children", children}}}}
+      .dump();
+}
+
+json set_elevation(int disc, int elevation) {
+  return json::array({{{"op", "replace"},
+                       {"path", "/root/children/" + std::to_string(disc) + "/elevation"},
+                       {"value", elevation}}});
+}
+
+json edit(std::int64_t base, const json& ops, const std::string& request = "") {
+  json m = {{"type", "edit"}, {"base", base}, {"ops", ops}};
+  if (!request.empty()) m["request"] = request;
+  return m;
+}
+
+std::int64_t rss_kib(pid_t pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.starts_with("VmRSS:")) return std::stoll(line.substr(6));
+  }
+  return -1;
+}
+
+class LiveEditing : public ::testing::Test {
+ protected:
+  static void start(const std::vector<std::string>& extra = {}) {
+    dir_ = std::make_unique<TempDir>("live");
+    std::vector<std::string> flags = {"--write-token", kToken};
+    flags.insert(flags.end(), extra.begin(), extra.end());
+    server_ = std::make_unique<ServerProcess>(dir_->path() / "data", flags);
+  }
+  static void SetUpTestSuite() {
+    start({"--live-edits-per-second", "1000", "--live-edit-burst", "1000", "--live-queue-bytes",
+           "262144", "--live-handshake-timeout-ms", "1500", "--live-max-message-bytes", "262144",
+           "--live-max-subscribers", "12"});
+  }
+  static void TearDownTestSuite() {
+    if (server_) server_->stop();
+    server_.reset();
+    dir_.reset();
+  }
+  int port() const { return server_->port(); }
+
+  /// Creates a fresh scene (one per test keeps tests independent).
+  std::string create_scene(const std::string& id) const {
+    const Response r = fetch(port(), "POST", "/api/v1/scenes?id=" + id, with_token(), quad_scene());
+    EXPECT_EQ(r.result_int(), 201u) << r.body();
+    return id;
+  }
+  std::string head_hash(const std::string& id) const {
+    const Response r = get(port(), "/api/v1/scenes/" + id);
+    const std::string etag = header(r, http::field::etag);
+    return etag.size() > 2 ? etag.substr(1, etag.size() - 2) : etag;
+  }
+  std::int64_t head_version(const std::string& id) const {
+    return std::stoll(header(get(port(), "/api/v1/scenes/" + id), "X-Scene-Version"));
+  }
+
+  static inline std::unique_ptr<TempDir> dir_;
+  static inline std::unique_ptr<ServerProcess> server_;
+};
+
+TEST_F(LiveEditing, SubscriberIsWelcomedWithTheHead) {
+  const std::string id = create_scene("welcome");
+  LiveClient viewer(port(), id);
+  const json welcome = viewer.subscribe(false);
+  EXPECT_EQ(welcome["scene"], id);
+  EXPECT_EQ(welcome["head"], 1);
+  EXPECT_EQ(welcome["hash"], head_hash(id));
+  EXPECT_EQ(welcome["can_edit"], false);
+  viewer.send({{"type", "ping"}});
+  EXPECT_EQ(viewer.next()["type"], "pong");
+}
+
+TEST_F(LiveEditing, AnEditBecomesAVersionThatEverySubscriberReceives) {
+  const std::string id = create_scene("one-edit");
+  LiveClient author(port(), id);
+  LiveClient viewer(port(), id);
+  author.subscribe(true, std::nullopt, "alice");
+  viewer.subscribe(false);
+  author.send(edit(1, set_elevation(0, 250), "r1"));
+  const json seen = viewer.next_of("version");
+  const json own = author.next_of("version");
+  const json ack = author.next_of("ack");
+  EXPECT_EQ(seen, own);
+  EXPECT_EQ(seen["version"], 2);
+  EXPECT_EQ(seen["previous"], 1);
+  EXPECT_EQ(seen["author"], "alice");
+  EXPECT_EQ(seen["ops"], set_elevation(0, 250));
+  EXPECT_EQ(seen["hash"], head_hash(id));
+  EXPECT_EQ(ack["request"], "r1");
+  EXPECT_EQ(ack["version"], 2);
+  EXPECT_EQ(ack["hash"], seen["hash"]);
+  EXPECT_EQ(ack["rebased"], false);
+  // The version is a version like any other: its JSON has the new elevation.
+  const json scene = body_json(get(port(), "/api/v1/scenes/" + id + "@2"));
+  EXPECT_EQ(scene["root"]["children"][0]["elevation"], 250);
+}
+
+TEST_F(LiveEditing, ConcurrentEditsConvergeInOneOrderEverywhere) {
+  const std::string id = create_scene("converge");
+  LiveClient a(port(), id), b(port(), id), observer(port(), id);
+  a.subscribe(true, std::nullopt, "a");
+  b.subscribe(true, std::nullopt, "b");
+  observer.subscribe(false);
+  constexpr int kEdits = 12;
+  // Both writers append discs without waiting for answers, always against version 1: all but
+  // the first edit are rebased onto versions the writer has not seen.
+  auto writer = [&](LiveClient& client, int row) {
+    for (int i = 0; i < kEdits; ++i) {
+      client.send(edit(1, json::array({{{"op", "add"},
+                                        {"path", "/root/children/-"},
+                                        {"value",
+                                         {{"type", "disc"},
+                                          {"center", {-1500 + 250 * i, row * 600}},
+                                          {"radius", 100},
+                                          {"elevation", 50}}}}})));
+    }
+  };
+  std::thread ta([&] { writer(a, 0); });
+  std::thread tb([&] { writer(b, 1); });
+  ta.join();
+  tb.join();
+  auto versions_seen = [&](LiveClient& client) {
+    std::vector<std::pair<std::int64_t, std::string>> seen;
+    while (seen.size() < 2 * kEdits) {
+      const json m = client.next();
+      if (m["type"] == "version") seen.emplace_back(m["version"], m["hash"]);
+      if (m["type"] == "reject") ADD_FAILURE() << m.dump();
+    }
+    return seen;
+  };
+  const auto at_a = versions_seen(a);
+  const auto at_b = versions_seen(b);
+  const auto at_observer = versions_seen(observer);
+  EXPECT_EQ(at_a, at_observer);
+  EXPECT_EQ(at_b, at_observer);
+  for (std::size_t i = 0; i < at_observer.size(); ++i) {
+    EXPECT_EQ(at_observer[i].first, static_cast<std::int64_t>(i) + 2);
+  }
+  EXPECT_EQ(at_observer.back().second, head_hash(id));
+  const json scene = body_json(get(port(), "/api/v1/scenes/" + id));
+  EXPECT_EQ(scene["root"]["children"].size(), 4u + 2 * kEdits);
+}
+
+TEST_F(LiveEditing, AnOldBaseIsRebasedWhenItsOpsStillApply) {
+  const std::string id = create_scene("rebase");
+  LiveClient a(port(), id), b(port(), id);
+  a.subscribe(true);
+  b.subscribe(true);
+  a.send(edit(1, set_elevation(0, 300)));
+  EXPECT_EQ(a.next_of("ack")["version"], 2);
+  b.send(edit(1, set_elevation(3, 40), "late"));  // written against version 1
+  const json ack = b.next_of("ack");
+  EXPECT_EQ(ack["version"], 3);
+  EXPECT_EQ(ack["rebased"], true);
+  const json scene = body_json(get(port(), "/api/v1/scenes/" + id));
+  EXPECT_EQ(scene["root"]["children"][0]["elevation"], 300);
+  EXPECT_EQ(scene["root"]["children"][3]["elevation"], 40);
+}
+
+TEST_F(LiveEditing, AnOldBaseThatTouchesAChangedValueIsRejected) {
+  const std::string id = create_scene("conflict");
+  LiveClient a(port(), id), b(port(), id);
+  a.subscribe(true);
+  b.subscribe(true);
+  a.send(edit(1, set_elevation(2, 300)));
+  EXPECT_EQ(a.next_of("ack")["version"], 2);
+  b.send(edit(1, set_elevation(2, 10), "stale"));
+  const json reject = b.next_of("reject");
+  EXPECT_EQ(reject["status"], 409);
+  EXPECT_EQ(reject["request"], "stale");
+  EXPECT_EQ(reject["pointer"], "/ops/0/path");
+  EXPECT_NE(reject["detail"].get<std::string>().find("/root/children/2/elevation"),
+            std::string::npos);
+  // Removing an earlier disc moves the later ones: their paths conflict too.
+  a.send(edit(2, json::array({{{"op", "remove"}, {"path", "/root/children/0"}}})));
+  EXPECT_EQ(a.next_of("ack")["version"], 3);
+  b.send(edit(2, set_elevation(3, 10)));
+  EXPECT_EQ(b.next_of("reject")["status"], 409);
+  EXPECT_EQ(head_version(id), 3);
+}
+
+TEST_F(LiveEditing, AReconnectingClientCatchesUpInOrder) {
+  const std::string id = create_scene("catch-up");
+  std::int64_t known = 0;
+  {
+    LiveClient viewer(port(), id);
+    known = viewer.subscribe(false)["head"];
+    viewer.close();
+  }
+  {
+    LiveClient author(port(), id);
+    author.subscribe(true);
+    for (int i = 0; i < 3; ++i) {
+      author.send(edit(known + i, set_elevation(i, 200 + i)));
+      author.next_of("ack");
+    }
+  }
+  // A PUT lands among the edits: it is a version like the others, without ops.
+  const Response put = fetch(port(), "PUT", "/api/v1/scenes/" + id, with_token(), quad_scene());
+  ASSERT_EQ(put.result_int(), 200u) << put.body();
+  LiveClient back(port(), id);
+  const json welcome = back.subscribe(false, known);
+  EXPECT_EQ(welcome["head"], known + 4);
+  for (std::int64_t v = known + 1; v <= known + 4; ++v) {
+    const json m = back.next_of("version");
+    EXPECT_EQ(m["version"], v);
+    EXPECT_EQ(m["previous"], v - 1);
+    if (v <= known + 3) {
+      EXPECT_EQ(m["ops"], set_elevation(static_cast<int>(v - known - 1),
+                                        static_cast<int>(200 + v - known - 1)));
+    } else {
+      EXPECT_TRUE(m["ops"].is_null());
+      EXPECT_EQ(m["author"], "api");
+    }
+  }
+  EXPECT_FALSE(back.message_within(Millis(200)));
+}
+
+TEST_F(LiveEditing, InvalidEditsAreRejectedAndChangeNothing) {
+  const std::string id = create_scene("invalid");
+  LiveClient author(port(), id), observer(port(), id);
+  author.subscribe(true);
+  observer.subscribe(false);
+  const std::string before = head_hash(id);
+  struct Case {
+    json message;
+    int status;
+    std::string pointer;
+  };
+  const std::vector<Case> cases = {
+      {edit(1, json::array({{{"op", "explode"}, {"path", "/name"}}})), 400, "/ops/0/op"},
+      {edit(1, json::array({{{"op", "replace"}, {"value", 1}}})), 400, "/ops/0/path"},
+      {edit(1, json::array({{{"op", "replace"}, {"path", "no-slash"}, {"value", 1}}})), 400,
+       "/ops/0/path"},
+      {edit(1, json::array({{{"op", "add"}, {"path", "/root/children/0/x"}}})), 400,
+       "/ops/0/value"},
+      {edit(1,
+            json::array({{{"op", "replace"}, {"path", "/root/children/9/radius"}, {"value", 1}}})),
+       400, "/ops/0"},
+      {edit(1,
+            json::array({{{"op", "replace"}, {"path", "/root/children/0/radius"}, {"value", -5}}})),
+       400, "/ops"},
+      {edit(1, json::array()), 400, "/ops"},
+      {edit(7, set_elevation(0, 1)), 409, "/base"},
+      {{{"type", "edit"}, {"ops", set_elevation(0, 1)}}, 400, "/base"},
+      {{{"type", "edit"}, {"base", 1}, {"ops", "replace"}}, 400, "/ops"},
+  };
+  for (const Case& c : cases) {
+    author.send(c.message);
+    const json reject = author.next_of("reject");
+    EXPECT_EQ(reject["status"], c.status) << c.message.dump() << " → " << reject.dump();
+    EXPECT_EQ(reject.value("pointer", ""), c.pointer) << reject.dump();
+  }
+  // A scene that does not validate names the scene's field.
+  author.send(edit(
+      1, json::array({{{"op", "replace"}, {"path", "/root/children/0/radius"}, {"value", -5}}})));
+  EXPECT_NE(author.next_of("reject")["detail"].get<std::string>().find("radius"),
+            std::string::npos);
+  // Messages that are not edits get an error and leave the connection open.
+  author.send_text("not json");
+  EXPECT_EQ(author.next_of("error")["status"], 400);
+  author.send({{"type", "dance"}});
+  EXPECT_EQ(author.next_of("error")["pointer"], "/type");
+  EXPECT_EQ(head_hash(id), before);
+  EXPECT_EQ(head_version(id), 1);
+  EXPECT_FALSE(observer.message_within(Millis(200)));  // no version event went out
+}
+
+TEST_F(LiveEditing, EditsNeedTheWriteToken) {
+  const std::string id = create_scene("token");
+  LiveClient viewer(port(), id);
+  viewer.subscribe(false);
+  viewer.send(edit(1, set_elevation(0, 5)));
+  EXPECT_EQ(viewer.next_of("reject")["status"], 401);
+  LiveClient wrong(port(), id);
+  wrong.send({{"type", "subscribe"}, {"token", "guess"}});
+  EXPECT_EQ(wrong.next_of("error")["status"], 403);
+  EXPECT_EQ(LiveClient::try_open(port(), id, {{"Authorization", "Bearer guess"}}), 403);
+  // The header works for clients that can send one.
+  LiveClient header_editor(port(), id, with_token());
+  EXPECT_EQ(header_editor.subscribe(false)["can_edit"], true);
+  EXPECT_EQ(head_version(id), 1);
+}
+
+TEST_F(LiveEditing, UpgradesAreRefusedClearly) {
+  create_scene("refusals");
+  EXPECT_EQ(LiveClient::try_open(port(), "no-such-scene"), 404);
+  EXPECT_EQ(LiveClient::try_open(port(), "refusals@1"), 400);
+  const Response plain = get(port(), "/api/v1/scenes/refusals/live");
+  EXPECT_EQ(plain.result_int(), 426u);
+  EXPECT_EQ(header(plain, http::field::content_type), "application/problem+json");
+}
+
+TEST_F(LiveEditing, OversizeMessagesCloseWith1009) {
+  const std::string id = create_scene("oversize");
+  // On the wire, so that what the server sends is seen byte for byte: an upgrade, then one
+  // masked text frame that announces more than the 256 kB the test server accepts.
+  Connection c(port());
+  c.send(request_text("GET", "/api/v1/scenes/" + id + "/live",
+                      {{"Upgrade", "websocket"},
+                       {"Connection", "Upgrade"},
+                       {"Sec-WebSocket-Key", "dGhlIHNhbXBsZSBub25jZQ=="},
+                       {"Sec-WebSocket-Version", "13"}}));
+  ASSERT_EQ(c.read().result_int(), 101u);
+  std::string frame = {'\x81', '\xff'};  // FIN + text; masked, 64-bit length
+  const std::uint64_t length = 300000;
+  for (int shift = 56; shift >= 0; shift -= 8) frame += static_cast<char>((length >> shift) & 0xff);
+  frame += std::string(4, '\0');    // mask key
+  frame += std::string(1000, 'x');  // the start of the payload
+  c.send(frame);
+  c.shutdown_write();
+  EXPECT_TRUE(c.closed_within(Millis(5000)));
+  // A close frame with code 1009 (0x03f1): "message too big".
+  EXPECT_EQ(c.received().substr(0, 4), std::string("\x88\x02\x03\xf1", 4));
+  EXPECT_EQ(metric(port(), "terrain_live_oversize_total"), 1);
+  EXPECT_EQ(head_version(id), 1);
+}
+
+TEST_F(LiveEditing, AClientThatNeverSubscribesIsClosed) {
+  const std::string id = create_scene("silent");
+  LiveClient client(port(), id);
+  EXPECT_EQ(client.close_code(Millis(5000)), 1008);
+}
+
+TEST_F(LiveEditing, ANonReadingClientIsCutOffWhileMemoryStaysBounded) {
+  const std::string id = create_scene("slow-reader");
+  LiveClient slow(port(), id, {}, 4096);
+  slow.subscribe(false);  // and then never reads again
+  LiveClient author(port(), id), fast(port(), id);
+  author.subscribe(true);
+  fast.subscribe(false);
+  const double cut_before = metric(port(), "terrain_live_slow_readers_total");
+  const std::int64_t rss_before = rss_kib(server_->pid());
+  // Each version event carries its ops: 200 kB of name per edit, 60 edits = 12 MB of events
+  // for each subscriber, far beyond the 256 kB backlog the test server allows one connection.
+  const std::string padding(200000, 'n');
+  for (int i = 0; i < 60; ++i) {
+    author.send(edit(1 + i, json::array({{{"op", "replace"},
+                                          {"path", "/name"},
+                                          {"value", padding + std::to_string(i)}}})));
+    author.next_of("ack");
+    EXPECT_EQ(fast.next_of("version")["version"], 2 + i);
+  }
+  EXPECT_EQ(metric(port(), "terrain_live_slow_readers_total"), cut_before + 1);
+  EXPECT_LT(rss_kib(server_->pid()) - rss_before, 64 * 1024);  // KiB: far below 3 × 12 MB
+  // What the slow reader finds when it finally reads: some events, then the end.
+  int received = 0;
+  while (slow.message_within(Millis(1000))) ++received;
+  EXPECT_LT(received, 60);
+}
+
+TEST(LiveLimits, EditsAreRateLimitedPerConnection) {
+  TempDir dir("live-rate");
+  ServerProcess server(dir.path() / "data", {"--write-token", kToken, "--live-edits-per-second",
+                                             "1", "--live-edit-burst", "3"});
+  const Response created =
+      fetch(server.port(), "POST", "/api/v1/scenes?id=rate", with_token(), quad_scene());
+  ASSERT_EQ(created.result_int(), 201u) << created.body();
+  LiveClient author(server.port(), "rate");
+  author.subscribe(true);
+  for (int i = 0; i < 3; ++i) {
+    author.send(edit(1 + i, set_elevation(0, 10 + i)));
+    EXPECT_EQ(author.next_of("ack")["version"], 2 + i);
+  }
+  author.send(edit(4, set_elevation(0, 99)));
+  EXPECT_EQ(author.next_of("reject")["status"], 429);
+  EXPECT_EQ(header(get(server.port(), "/api/v1/scenes/rate"), "X-Scene-Version"), "4");
+  server.stop();
+}
+
+TEST_F(LiveEditing, SubscribersPerSceneAreBounded) {
+  const std::string id = create_scene("crowd");
+  std::vector<std::unique_ptr<LiveClient>> crowd;
+  for (int i = 0; i < 12; ++i) {
+    crowd.push_back(std::make_unique<LiveClient>(port(), id));
+    crowd.back()->subscribe(false);
+  }
+  EXPECT_EQ(LiveClient::try_open(port(), id), 503);
+  crowd.pop_back();
+  // The channel notices the departure once the server has read the close.
+  const auto deadline = Clock::now() + Millis(5000);
+  int status = 0;
+  while ((status = LiveClient::try_open(port(), id)) != 101 && Clock::now() < deadline) {
+    std::this_thread::sleep_for(Millis(50));
+  }
+  EXPECT_EQ(status, 101);
+}
+
+}  // namespace
