@@ -132,3 +132,25 @@ export function writeViewToHash({ scene, camera, mode }) {
   if (mode === 'fly') params.set('mode', 'fly');
   return '#' + params.toString().replaceAll('%2C', ',');
 }
+
+/// The ray through canvas point (x, y) (pixels, y from the top, of a width × height picture) as
+/// the tracer casts it (trace_ray_direction): { origin, direction (unit) }.
+export function rayThrough(camera, x, y, width, height) {
+  const { forward, right, up, tanHalf } = camera.basis();
+  const sx = (2 * (x / width) - 1) * tanHalf * (width / height);
+  const sy = (1 - 2 * (y / height)) * tanHalf;
+  return { origin: camera.eye, direction: normalise(add(forward, add(scale(right, sx), scale(up, sy)))) };
+}
+
+/// Where a point (scene metres) appears on a width × height picture: { x, y } in pixels (y from
+/// the top), or null when it is behind the eye.
+export function projectPoint(camera, point, width, height) {
+  const { forward, right, up, tanHalf } = camera.basis();
+  const v = sub(point, camera.eye);
+  const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  const depth = dot(v, forward);
+  if (!(depth > 0)) return null;
+  const sx = dot(v, right) / depth / (tanHalf * (width / height));
+  const sy = dot(v, up) / depth / tanHalf;
+  return { x: ((sx + 1) / 2) * width, y: ((1 - sy) / 2) * height };
+}

@@ -1,9 +1,14 @@
 // The browser viewer: picks a scene, fetches its compiled program and sphere-traces it locally
 // (scene_view.js), with orbit/fly controls, a frame-time readout and the view in the URL; or
 // picks a planet and streams its quantized-mesh tiles (planet_view.js) under a globe camera.
+// In scene mode it follows the scene's live channel (live.js): every new version, whoever made
+// it, is fetched and drawn under the same camera, and the editing mode (edit_mode.js) sends
+// edits over the same channel.
 import { ApiError, fetchJson, fetchText } from './api.js';
-import { Camera, readViewFromHash, writeViewToHash } from './camera.js';
+import { Camera, projectPoint, rayThrough, readViewFromHash, writeViewToHash } from './camera.js';
 import { Controls } from './controls.js';
+import { EditMode } from './edit_mode.js';
+import { LiveChannel } from './live.js';
 import { SceneView } from './scene_view.js';
 import { PlanetView } from './planet_view.js';
 import { GlobeCamera, GlobeControls, readPlanetHash, writePlanetHash } from './planet_camera.js';
@@ -16,6 +21,8 @@ const shareLink = document.getElementById('share');
 const frameTime = document.getElementById('frame-time');
 const messageBox = document.getElementById('message');
 const helpLine = document.getElementById('help');
+const editToggle = document.getElementById('edit-toggle');
+const liveStatus = document.getElementById('live-status');
 const SCENE_HELP = helpLine.textContent;
 const PLANET_HELP = 'Drag to move the globe · right-drag or shift-drag to turn and tilt · wheel or pinch to zoom · ' +
   'arrows / WASD move, Q E turn, R F tilt, + − zoom';
@@ -26,6 +33,13 @@ const state = {
   glsl: null,      // the shared GLSL, fetched once
   sceneId: null,
   bundle: null,    // the scene's trace bundle (program, bounds, setup, default camera)
+  liveId: null,    // the scene's own id (the bundle's scene_id: "default" may alias it)
+  shown: null,     // the version drawn: { version, hash, author }
+  versions: new Map(),  // version -> { hash, author, created_ms } from the live channel
+  newest: null,    // the newest version the live channel announced
+  live: null,      // LiveChannel of the scene shown
+  liveState: 'connecting',
+  versionLoads: new Map(),  // version -> AbortController of its trace bundle's fetch
   view: null,      // SceneView
   camera: null,
   controls: null,
@@ -104,6 +118,7 @@ async function loadScene(id, camera) {
     state.camera = camera ?? new Camera(bundle.camera);
     state.controls.setCamera(state.camera);
     picker.value = id;
+    followLive(bundle.scene_id ?? id, bundle.version);
     markDirty('scene');
   } catch (e) {
     if (state.loading !== token) return;
@@ -114,6 +129,168 @@ async function loadScene(id, camera) {
   } finally {
     if (state.loading === token) state.loading = null;
   }
+}
+
+// ---- Live updates ----------------------------------------------------------------------------
+
+/// Follows `sceneId`'s live channel from `version` (the one drawn) on.
+function followLive(sceneId, version) {
+  stopLive();
+  state.liveId = sceneId;
+  state.shown = { version, hash: null, author: null };
+  state.newest = version;
+  const live = new LiveChannel(sceneId, { since: version, ...editMode.credentials() });
+  state.live = live;
+  live.addEventListener('status', (e) => {
+    state.liveState = e.detail.state;
+    showLiveStatus();
+    editMode.showAccess();
+  });
+  live.addEventListener('welcome', (e) => {
+    const w = e.detail;
+    if (w.head === state.shown?.version && !state.shown.hash) state.shown.hash = w.hash;
+    showLiveStatus();
+    editMode.showAccess();
+  });
+  live.addEventListener('version', (e) => {
+    const v = e.detail;
+    state.versions.set(v.version, { hash: v.hash, author: v.author, created_ms: v.created_ms });
+    state.newest = Math.max(state.newest ?? 0, v.version);
+    showLiveStatus();
+    loadVersion(v.version);
+    editMode.follow();
+  });
+  live.addEventListener('refused', () => editMode.showAccess());
+  // The server no longer has the version shown (a new store): start again from its head.
+  live.addEventListener('reset', () => {
+    if (state.live === live && state.sceneId) loadScene(state.sceneId, state.camera);
+  });
+  live.addEventListener('error', (e) => editMode.setStatus(`The server refused a message: ${e.detail.detail || e.detail.title}`, 'error'));
+  editMode.reset();
+  liveStatus.hidden = false;
+  showLiveStatus();
+}
+
+function stopLive() {
+  state.live?.close();
+  state.live = null;
+  state.liveId = null;
+  state.shown = null;
+  state.newest = null;
+  state.versions.clear();
+  for (const controller of state.versionLoads.values()) controller.abort();
+  state.versionLoads.clear();
+  liveStatus.hidden = true;
+}
+
+let versionError = null;  // the message of a version that could not be drawn, until one is
+
+/// Fetches and draws version `version` (pinned, so cached for good) under the current camera.
+/// Versions only go forwards: a fetch for an older one than drawn is aborted or dropped.
+async function loadVersion(version) {
+  const scene = state.liveId;
+  if (!scene || version <= state.shown.version || state.versionLoads.has(version)) return;
+  const controller = new AbortController();
+  state.versionLoads.set(version, controller);
+  try {
+    const bundle = await fetchJson(`/api/v1/scenes/${encodeURIComponent(scene)}@${version}/trace.json`,
+      { signal: controller.signal });
+    if (state.liveId !== scene || !state.view || version <= state.shown.version) return;
+    if (!state.view.replaceBundle(bundle)) {
+      const view = SceneView.create(state.gl, state.glsl, bundle);
+      state.view.dispose();
+      state.view = view;
+    }
+    state.bundle = bundle;
+    const info = state.versions.get(version) ?? {};
+    state.shown = { version, hash: info.hash ?? null, author: info.author ?? null };
+    if (versionError && state.error === versionError) showMessage('');
+    versionError = null;
+    // What was on its way for older versions is of no use now.
+    for (const [v, c] of state.versionLoads) {
+      if (v < version) {
+        c.abort();
+        state.versionLoads.delete(v);
+      }
+    }
+    markDirty('version');
+  } catch (e) {
+    if (e.name === 'AbortError' || state.liveId !== scene) return;
+    versionError = `Version ${version} of "${scene}" could not be drawn: ${e.message}`;
+    showMessage(versionError);
+  } finally {
+    if (state.versionLoads.get(version) === controller) state.versionLoads.delete(version);
+    showLiveStatus();
+  }
+}
+
+// The discreet readout of the version drawn (its author when a live event named one) and of the
+// channel: "v7 · alice", "v7 · loading v8", "v7 · offline".
+function showLiveStatus() {
+  const shown = state.shown;
+  if (!shown) return;
+  const parts = [`v${shown.version}`];
+  if (shown.author) parts.push(shown.author);
+  if (state.newest > shown.version) parts.push(`loading v${state.newest}`);
+  const offline = state.liveState === 'waiting';
+  if (offline) parts.push('offline, reconnecting');
+  else if (state.liveState === 'connecting') parts.push('connecting');
+  liveStatus.textContent = parts.join(' · ');
+  liveStatus.classList.toggle('offline', offline);
+  liveStatus.dataset.version = String(shown.version);
+  liveStatus.dataset.hash = shown.hash ?? '';
+  const when = state.versions.get(shown.version)?.created_ms;
+  liveStatus.title = `Version ${shown.version}${shown.author ? ` by ${shown.author}` : ''}` +
+    `${when ? `, ${new Date(when).toLocaleString()}` : ''}${shown.hash ? `\n${shown.hash}` : ''}` +
+    (offline ? '\nThe live channel is reconnecting; changes made meanwhile will follow.' : '\nLive: others’ edits appear here.');
+}
+
+// ---- Editing ---------------------------------------------------------------------------------
+
+// Canvas pixels (CSS) to the device pixels the tracer draws.
+function devicePoint(x, y) {
+  return [(x * canvas.width) / Math.max(canvas.clientWidth, 1), (y * canvas.height) / Math.max(canvas.clientHeight, 1)];
+}
+
+/// Where the ray through canvas point (x, y) (CSS pixels) meets the level z, or null.
+function planeAt(x, y, z) {
+  if (!state.camera) return null;
+  const { origin, direction } = rayThrough(state.camera, ...devicePoint(x, y), canvas.width, canvas.height);
+  if (Math.abs(direction[2]) < 1e-9) return null;
+  const t = (z - origin[2]) / direction[2];
+  return t > 0 ? [origin[0] + t * direction[0], origin[1] + t * direction[1], z] : null;
+}
+
+const editMode = new EditMode(canvas, {
+  sceneId: () => state.liveId,
+  version: () => state.newest,
+  live: () => state.live,
+  // The ground under canvas point (x, y): the traced distance of the picture on the canvas;
+  // while no picture shows the current camera, the middle of the scene's height range.
+  groundAt: (x, y) => {
+    if (!state.view || !state.camera) return null;
+    const [dx, dy] = devicePoint(x, y);
+    const depth = state.view.depthAt(state.camera, dx, dy, canvas.width, canvas.height);
+    if (depth === null) return planeAt(x, y, editModeElevationHint());
+    if (!(depth > 0)) return null;  // sky
+    const { origin, direction } = rayThrough(state.camera, dx, dy, canvas.width, canvas.height);
+    return [0, 1, 2].map((k) => origin[k] + depth * direction[k]);
+  },
+  planeAt,
+  project: (point) => {
+    if (!state.camera) return null;
+    const at = projectPoint(state.camera, point, canvas.width, canvas.height);
+    if (!at) return null;
+    const r = canvas.getBoundingClientRect();
+    return { x: r.left + (at.x * canvas.clientWidth) / canvas.width, y: r.top + (at.y * canvas.clientHeight) / canvas.height };
+  },
+  elevationHint: editModeElevationHint,
+  onCredentials: () => state.live?.setCredentials(editMode.credentials()),
+});
+
+function editModeElevationHint() {
+  const e = state.bundle?.setup?.elevation;
+  return e ? (e[0] + e[1]) / 2 : 0;
 }
 
 // Scene mode's orbit/fly controls; planet mode replaces them with GlobeControls (both listen to
@@ -136,6 +313,7 @@ function leavePlanetMode() {
   state.planet.view.dispose();
   state.planet = null;
   modeButton.hidden = false;
+  editToggle.hidden = false;
   helpLine.textContent = SCENE_HELP;
   if (!state.controls) state.controls = makeSceneControls();
 }
@@ -167,6 +345,9 @@ async function loadPlanet(id, camera) {
       return;
     }
     leavePlanetMode();
+    stopLive();
+    if (editMode.enabled) editMode.setEnabled(false);
+    editToggle.hidden = true;
     state.view?.dispose();
     state.view = null;
     state.bundle = null;
@@ -248,6 +429,7 @@ function frame(now) {
   if (!state.view || !state.camera) return;
   if (state.controls.update(dt)) markDirty('keys');
   resize();
+  if (editMode.enabled) editMode.updateMarker();
   if (state.moving && now - state.lastMove > 200) state.moving = false;
   const { width, height } = canvas;
   if (state.dirty) {

@@ -90,16 +90,6 @@ export class SceneView {
   constructor(gl, program, bundle) {
     this.gl = gl;
     this.program = program;
-    this.bundle = bundle;
-    const code = new Uint32Array(decodeBase64(bundle.code).buffer);
-    const pool = new Uint32Array(decodeBase64(bundle.pool).buffer);
-    const bounds = new Float32Array(decodeBase64(bundle.bounds).buffer);
-    this.programSize = code.length / 4;
-    this.textures = [
-      ['u_code', dataTexture(gl, code, { width: TEXTURE_WIDTH, format: 'rgba32ui' })],
-      ['u_pool', dataTexture(gl, pool, { width: TEXTURE_WIDTH, format: 'r32ui' })],
-      ['u_bounds', dataTexture(gl, bounds, { width: TEXTURE_WIDTH, format: 'r32f' })],
-    ];
     this.uniforms = {};
     const count = gl.getProgramParameter(program, gl.ACTIVE_UNIFORMS);
     for (let i = 0; i < count; ++i) {
@@ -109,6 +99,55 @@ export class SceneView {
     this.vao = gl.createVertexArray();
     this.targets = {};  // 'preview' (reduced resolution) and 'full'
     this.fullFrameMs = 0;  // the viewer's sum of band times for the last complete view
+    this.loadData(bundle);
+  }
+
+  // The program, pool and bounds of a bundle into textures.
+  loadData(bundle) {
+    const gl = this.gl;
+    const code = new Uint32Array(decodeBase64(bundle.code).buffer);
+    const pool = new Uint32Array(decodeBase64(bundle.pool).buffer);
+    const bounds = new Float32Array(decodeBase64(bundle.bounds).buffer);
+    for (const [, t] of this.textures ?? []) gl.deleteTexture(t);
+    this.bundle = bundle;
+    this.programSize = code.length / 4;
+    this.textures = [
+      ['u_code', dataTexture(gl, code, { width: TEXTURE_WIDTH, format: 'rgba32ui' })],
+      ['u_pool', dataTexture(gl, pool, { width: TEXTURE_WIDTH, format: 'r32ui' })],
+      ['u_bounds', dataTexture(gl, bounds, { width: TEXTURE_WIDTH, format: 'r32f' })],
+    ];
+  }
+
+  /// Shows another version of the scene: when the shader fits it (the same stack sizes) only
+  /// its data textures change, which is much quicker than compiling the tracer again. Returns
+  /// false when the bundle needs a new SceneView.
+  replaceBundle(bundle) {
+    const { fields, frames } = this.bundle.stacks;
+    if (bundle.stacks.fields !== fields || bundle.stacks.frames !== frames) return false;
+    this.loadData(bundle);
+    for (const target of Object.values(this.targets)) target.complete = target.camera = null;
+    return true;
+  }
+
+  /// The ray distance (metres; −1 for sky) at canvas pixel (x, y) (y from the top) of the last
+  /// picture traced for `camera`, full resolution if it is complete, else the preview; null
+  /// when neither shows this camera.
+  depthAt(camera, x, y, width, height) {
+    const full = this.targets.full;
+    const preview = this.targets.preview;
+    const target = full?.complete?.equals(camera) && full.width === width && full.height === height ? full :
+      preview?.camera?.equals(camera) ? preview : null;
+    if (!target) return null;
+    const px = Math.min(target.width - 1, Math.max(0, Math.floor((x * target.width) / width)));
+    const py = Math.min(target.height - 1, Math.max(0, Math.floor((y * target.height) / height)));
+    const gl = this.gl;
+    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, target.framebuffer);
+    gl.readBuffer(gl.COLOR_ATTACHMENT1);
+    const texel = new Float32Array(4);
+    gl.readPixels(px, target.height - 1 - py, 1, 1, gl.RGBA, gl.FLOAT, texel);
+    gl.readBuffer(gl.COLOR_ATTACHMENT0);
+    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, null);
+    return texel[0];
   }
 
   dispose() {
@@ -143,6 +182,7 @@ export class SceneView {
     const target = this.ensureTarget('preview', w, h);
     target.complete = null;
     this.trace(target, camera, 0, h);
+    target.camera = camera.clone();
     this.show(target, 0, h, width, height);
     return performance.now() - start;
   }

@@ -17,10 +17,12 @@ export class Checks {
 }
 
 /// Starts terrain-server on a free port with an empty data directory, serving client_web/.
-export async function startServer(serverBinary, repoRoot) {
+/// `writeToken` turns writes (POST, PUT, live edits) on with that bearer token.
+export async function startServer(serverBinary, repoRoot, { writeToken = '' } = {}) {
   const data = mkdtempSync(join(tmpdir(), 'browser-test-'));
+  const token = writeToken ? ['--write-token', writeToken] : [];
   const server = spawn(serverBinary, ['--config', '/dev/null', '--port', '0', '--data-dir', data,
-    '--client-dir', join(repoRoot, 'client_web'), '--log-level', 'warn'], { cwd: repoRoot });
+    '--client-dir', join(repoRoot, 'client_web'), '--log-level', 'warn', ...token], { cwd: repoRoot });
   let errors = '';
   server.stderr.on('data', (d) => { errors += d; });
   const port = await new Promise((resolve, reject) => {
@@ -43,13 +45,15 @@ export function launchBrowser() {
   });
 }
 
-/// A page of the viewer at `url`, width × height CSS pixels at one device pixel each, collecting
-/// console errors.
-export async function openViewer(browser, url, width, height) {
-  const page = await browser.newPage({ viewport: { width, height }, deviceScaleFactor: 1 });
+/// A page of the viewer at `url`, width × height CSS pixels at one device pixel each (or
+/// `deviceScaleFactor`: below 1 a large page traces few pixels), collecting console errors.
+/// `beforeLoad(page)` runs before the page opens (routes, init scripts).
+export async function openViewer(browser, url, width, height, { deviceScaleFactor = 1, beforeLoad } = {}) {
+  const page = await browser.newPage({ viewport: { width, height }, deviceScaleFactor });
   const consoleErrors = [];
   page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
   page.on('pageerror', (e) => consoleErrors.push(String(e)));
+  if (beforeLoad) await beforeLoad(page);
   const start = Date.now();
   await page.goto(url);
   return { page, consoleErrors, start };
