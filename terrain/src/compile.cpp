@@ -2,13 +2,53 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
+#include <cstdint>
 #include <map>
+#include <utility>
 
 #include "nodes/transform.hpp"
 #include "terrain/evaluate.hpp"
 #include "terrain/program.hpp"
 
 namespace terrain {
+namespace {
+
+// A coordinate on a fixed lattice of 1/16 m about the origin, offset to be unsigned. The lattice
+// does not depend on the other children (unlike a median split of their bounding box would).
+std::uint32_t lattice_coordinate(float v) {
+  if (!std::isfinite(v)) v = 0.0f;  // an unbounded or empty support has no meaningful centre
+  const double q =
+      std::clamp(std::floor(static_cast<double>(v) * 16.0), -2147483648.0, 2147483647.0);
+  return static_cast<std::uint32_t>(static_cast<std::int64_t>(q) + 2147483648ll);
+}
+
+}  // namespace
+
+// The position along a Hilbert curve of the support's centre, on a fixed lattice. Float sums
+// depend on the order of their terms, so the order of any two children must depend on those two
+// alone: then adding, removing or editing one child never reorders the others, and an edit changes
+// no bit where the edited child has no weight (what tile invalidation, scene_diff.hpp, relies
+// on). A Hilbert curve (rather than a Morton code) keeps runs of consecutive keys compact, which
+// is what the BVH over halves of that order needs.
+std::uint64_t blend_order_key(const Box2& support) {
+  const Vec2 c = support.center();
+  std::uint64_t x = lattice_coordinate(c.x), y = lattice_coordinate(c.y);
+  std::uint64_t key = 0;
+  for (std::uint64_t s = std::uint64_t{1} << 31; s > 0; s >>= 1) {
+    const std::uint64_t rx = (x & s) != 0 ? 1 : 0, ry = (y & s) != 0 ? 1 : 0;
+    key += s * s * ((3 * rx) ^ ry);
+    if (ry == 0) {  // rotate the quadrant (the bits above s no longer matter)
+      if (rx == 1) {
+        x = ~x;
+        y = ~y;
+      }
+      std::swap(x, y);
+    }
+  }
+  return key;
+}
+
 namespace {
 
 class Compiler {
@@ -91,7 +131,18 @@ class Compiler {
         grow(+1);
         std::vector<const Node*> children;
         for (const NodePtr& child : node.children) children.push_back(child.get());
-        emit_blend_children(children);
+        // Accumulated in the order of a per-child key (the support's centre along a Hilbert
+        // curve), the same with or without culling; the BVH splits that order into halves.
+        std::vector<std::uint64_t> keys;
+        for (const Node* child : children)
+          keys.push_back(blend_order_key(bounds_of(*child).support));
+        std::vector<std::size_t> order(children.size());
+        for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+        std::stable_sort(order.begin(), order.end(),
+                         [&](std::size_t a, std::size_t b) { return keys[a] < keys[b]; });
+        std::vector<const Node*> sorted;
+        for (std::size_t i : order) sorted.push_back(children[i]);
+        emit_blend_children(sorted);
         push(Op::blend_end, node, params);
         break;
       }
@@ -130,9 +181,11 @@ class Compiler {
     push(Op::warp_end, node, params);
   }
 
-  // Blend children grouped in a BVH of `group` boxes: a block visits only the children whose
-  // support it touches. The blend is an accumulation, so grouping never changes the result.
-  void emit_blend_children(std::vector<const Node*> children) {
+  // Blend children, already in accumulation order, grouped in a BVH of `group` boxes over
+  // halves of that order (consecutive Hilbert keys lie near each other): a block visits only the
+  // children whose support it touches. Skipping a child with no weight adds nothing, and the
+  // grouping keeps the order, so it never changes a bit of the result.
+  void emit_blend_children(const std::vector<const Node*>& children) {
     if (!options_.cull || static_cast<int>(children.size()) <= options_.blend_leaf_size) {
       for (const Node* child : children) {
         emit(*child, true);
@@ -141,14 +194,6 @@ class Compiler {
       }
       return;
     }
-    Box2 all;
-    for (const Node* c : children) all = all.united(bounds_of(*c).support);
-    const bool along_x = all.size().x >= all.size().y;
-    std::stable_sort(children.begin(), children.end(), [&](const Node* a, const Node* b) {
-      const Vec2 ca = bounds_of(*a).support.center();
-      const Vec2 cb = bounds_of(*b).support.center();
-      return along_x ? ca.x < cb.x : ca.y < cb.y;
-    });
     const auto half = static_cast<std::ptrdiff_t>(children.size() / 2);
     const std::vector<const Node*> parts[2] = {{children.begin(), children.begin() + half},
                                                {children.begin() + half, children.end()}};

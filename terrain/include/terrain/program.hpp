@@ -57,6 +57,11 @@ struct CompileOptions {
   bool cull = true;  ///< emit cull/group boxes (false: plain traversal)
 };
 
+/// Where a blend child with this support (tree_bounds(child, {}).support) goes in its blend's
+/// accumulation order: the compiler adds a blend's children in increasing key order, ties in
+/// declaration order, with or without culling. A child's key depends on that child alone.
+std::uint64_t blend_order_key(const Box2& support);
+
 /// Flattens a scene's tree into a program. Fails only on limits (depth, size).
 Result<Program> compile(const Scene& scene, const CompileOptions& options = {});
 /// Compiles the scene's water layer (Scene::water, which must be present).

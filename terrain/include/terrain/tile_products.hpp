@@ -121,9 +121,11 @@ class ProductMaker {
   /// zoom 0 tile, then the tiles covering the scene's area up to max_useful_zoom).
   nlohmann::json layer_json(const LayerJsonOptions& base) const;
 
- private:
+  /// The samples `make` evaluates for a product (sample layout, cells, border).
   static TileRequest request_for(TileScheme scheme, const TileAddress& address, TileFormat format,
                                  const ProductOptions& options);
+
+ private:
   Status validate(TileScheme scheme, const TileAddress& address, TileFormat format,
                   const ProductOptions& options) const;
   std::vector<std::vector<AvailabilityRectangle>> availability(int from_z, int to_z,
