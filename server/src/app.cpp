@@ -73,23 +73,7 @@ bool accepts_gzip(const Request& request) {
   return it != request.end() && it->value().find("gzip") != boost::beast::string_view::npos;
 }
 
-// JSON answers are gzipped when the client accepts it and the body is worth compressing.
-Response json_response(const Request& request, http::status status, const json& body,
-                       std::string_view media_type = "application/json") {
-  std::string text = body.dump();
-  Response r = make_response(request, status, "", media_type);
-  if (accepts_gzip(request) && text.size() > 1024) {
-    auto packed = terrain::gzip_compress(std::string_view(text), 6);
-    if (packed) {
-      r.set(http::field::content_encoding, "gzip");
-      text.assign(packed->begin(), packed->end());
-    }
-  }
-  r.set(http::field::vary, "Accept-Encoding, Origin");
-  r.body() = std::move(text);
-  r.prepare_payload();
-  return r;
-}
+using detail::json_response;
 
 std::string percent_decode(std::string_view in, bool plus_is_space, bool& ok) {
   std::string out;
@@ -473,6 +457,32 @@ Response problem(const Request& request, http::status status, std::string_view t
   Response r = make_response(request, status, body.dump(), "application/problem+json");
   r.set(http::field::cache_control, "no-store");
   return r;
+}
+
+// JSON answers are gzipped when the client accepts it and the body is worth compressing.
+Response detail::json_response(const Request& request, http::status status, const json& body,
+                               std::string_view media_type) {
+  std::string text = body.dump();
+  Response r = make_response(request, status, "", media_type);
+  if (accepts_gzip(request) && text.size() > 1024) {
+    auto packed = terrain::gzip_compress(std::string_view(text), 6);
+    if (packed) {
+      r.set(http::field::content_encoding, "gzip");
+      text.assign(packed->begin(), packed->end());
+    }
+  }
+  r.set(http::field::vary, "Accept-Encoding, Origin");
+  r.body() = std::move(text);
+  r.prepare_payload();
+  return r;
+}
+
+terrain::Result<detail::TileShape, Response> detail::tile_shape(
+    const Request& request, const std::vector<std::string>& rest,
+    const std::map<std::string, std::string>& query) {
+  auto parsed = parse_tile_query(request, rest, query, false);
+  if (!parsed) return parsed.error();
+  return TileShape{parsed->scheme, parsed->address, parsed->format, parsed->options};
 }
 
 App::App(Config config, std::unique_ptr<Store> store)
@@ -1193,6 +1203,11 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
       return respond(hit);
     }
   }
+  if (auto reused = reuse_unchanged_tile(loaded, query->key(), query->scheme, address,
+                                         query->format, options)) {
+    cache_.insert(cache_key, reused);
+    return respond(reused);
+  }
 
   auto source = loaded.source;
   const std::string version_hash = loaded.version.hash;
@@ -1852,7 +1867,9 @@ Response App::trace_glsl(const Request& request) const {
 // walks the program over the whole area, so the bundle is built on the generation pool once per
 // version and cached like a tile.
 Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, bool pinned) {
-  const std::string key = loaded.version.hash + "|trace.json";
+  // The bundle names its version (and author), which two versions of equal content do not share.
+  const std::string key = loaded.version.hash + "|trace.json|" + loaded.version.scene_id + "@" +
+                          std::to_string(loaded.version.version);
   const std::string cache_control =
       pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate";
   Request shadow{http::verb::get, "/", request.version()};
@@ -1870,6 +1887,9 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
   const terrain::Box2 area = loaded.scene->area();
   const std::string scene_id = loaded.version.scene_id;
   const std::int64_t version = loaded.version.version;
+  const std::string hash = loaded.version.hash;
+  const std::string author = loaded.version.author;
+  const std::int64_t created_ms = loaded.version.created_ms;
   Deferred deferred;
   deferred.cost = static_cast<double>(source->terrain->code.size()) * 64.0 * 64.0 * 5.0;
   deferred.work = [=, this]() -> Response {
@@ -1887,6 +1907,9 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
     const json body{
         {"scene_id", scene_id},
         {"version", version},
+        {"hash", hash},
+        {"author", author},
+        {"created_ms", created_ms},
         {"code",
          terrain::base64(program.code.data(), program.code.size() * sizeof(terrain::Instruction))},
         {"pool", terrain::base64(pool.data(), pool.size() * sizeof(float))},

@@ -1,6 +1,7 @@
 // Live editing (docs/live.md): the protocol of one connection, edits as JSON Patch with rebasing,
 // and version events published in one order per scene.
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 
 #include <nlohmann/json.hpp>
@@ -9,6 +10,8 @@
 #include "server/app.hpp"
 #include "server/log.hpp"
 #include "server/scene_edit.hpp"
+#include "terrain/scene_diff.hpp"
+#include "terrain/tile_products.hpp"
 
 namespace server {
 namespace {
@@ -18,6 +21,10 @@ using json = nlohmann::json;
 // Catch-up rebuilds at most this many events the channel no longer remembers (each needs both
 // versions parsed and compiled); a longer gap comes as one event from `since` to the head.
 constexpr std::int64_t kRebuiltEvents = 64;
+// Version comparisons kept (each holds both versions' parsed scenes).
+constexpr std::size_t kSceneChanges = 64;
+// The longest tile list one /changes answer carries (then "truncated": true).
+constexpr std::size_t kMaxChangedTiles = 4096;
 
 std::shared_ptr<const std::string> text(const json& message) {
   return std::make_shared<const std::string>(message.dump());
@@ -313,15 +320,35 @@ void App::live_edit(LiveConnection& c, const json& message) {
     return reject({409, "Unknown version",
                    "the scene is at version " + std::to_string(head->version), "/base"});
   }
-  StoreResult<SceneVersion> base =
-      base_number == head->version ? head : store_->version(c.scene, base_number);
-  if (!base) return reject({503, "Store unavailable", base.error().message, ""});
-  const json base_doc = json::parse(base->canonical_json, nullptr, false);
   const json head_doc = json::parse(head->canonical_json, nullptr, false);
-  if (base_doc.is_discarded() || head_doc.is_discarded()) {
-    return reject({500, "Stored scene unreadable", "a stored version is not JSON", ""});
+  if (head_doc.is_discarded()) {
+    return reject({500, "Stored scene unreadable", "the head is not JSON", ""});
   }
-  auto patched = rebase_and_apply(*ops_it, base_doc, head_doc);
+  // What other authors changed since the base, version by version.
+  std::vector<NewerChange> newer;
+  if (base_number < head->version) {
+    if (head->version - base_number > kRebuiltEvents) {
+      return reject({409, "Base too old",
+                     "the edit is " + std::to_string(head->version - base_number) +
+                         " versions behind the head (at most " + std::to_string(kRebuiltEvents) +
+                         "): edit the head",
+                     "/base"});
+    }
+    StoreResult<std::vector<SceneVersion>> between =
+        store_->versions_after(c.scene, base_number - 1, head->version - base_number + 1);
+    if (!between) return reject({503, "Store unavailable", between.error().message, ""});
+    json previous;
+    for (const SceneVersion& v : *between) {
+      json document = json::parse(v.canonical_json, nullptr, false);
+      const bool own = std::find(c.own_versions.begin(), c.own_versions.end(), v.version) !=
+                       c.own_versions.end();
+      if (v.version > base_number && !own) {
+        newer.push_back({v.version, v.author, json::diff(previous, document)});
+      }
+      previous = std::move(document);
+    }
+  }
+  auto patched = rebase_and_apply(*ops_it, newer, head_doc);
   if (!patched) return reject(patched.error());
   auto scene = parse_stored(patched->dump());
   if (!scene) {
@@ -354,6 +381,10 @@ void App::live_edit(LiveConnection& c, const json& message) {
   }
   ack["version"] = stored->version;
   ack["hash"] = stored->hash;
+  c.own_versions.push_back(stored->version);
+  if (c.own_versions.size() > static_cast<std::size_t>(kRebuiltEvents)) {
+    c.own_versions.erase(c.own_versions.begin());
+  }
   c.self->deliver(text(ack));  // after the version event, which publish delivered
 }
 
@@ -398,16 +429,130 @@ json App::version_event(const Request& context, const SceneVersion& current,
 
 namespace server {
 
-nlohmann::json App::changed_between(const LoadedVersion& before, const LoadedVersion& after) {
-  // TEMPORARY until terrain::SceneChange lands.
-  const bool same = before.version.hash == after.version.hash;
-  return {{"everything", !same},
-          {"box", nullptr},
-          {"global_formats", same ? json::array() : json("all")}};
+std::shared_ptr<const terrain::SceneChange> App::scene_change(const LoadedVersion& before,
+                                                              const LoadedVersion& after) {
+  const std::string key = before.version.hash + ">" + after.version.hash;
+  {
+    std::lock_guard lock(changes_mutex_);
+    if (auto it = changes_.find(key); it != changes_.end()) return it->second;
+  }
+  auto change = std::make_shared<const terrain::SceneChange>(
+      terrain::SceneChange::between(before.scene, before.source, after.scene, after.source));
+  std::lock_guard lock(changes_mutex_);
+  if (changes_.size() >= kSceneChanges) changes_.clear();
+  changes_.emplace(key, change);
+  return change;
 }
 
-Response App::scene_changes(const Request& request, const std::string&, const Target&) {
-  return problem(request, http::status::not_implemented, "x", "y");
+json App::changed_between(const LoadedVersion& before, const LoadedVersion& after) {
+  const auto change = scene_change(before, after);
+  json out = {{"everything", change->everything()}};
+  if (const auto box = change->box()) {
+    out["box"] = {{"min", {box->lo.x, box->lo.y}}, {"max", {box->hi.x, box->hi.y}}};
+  } else {
+    out["box"] = nullptr;
+  }
+  if (change->everything()) {
+    out["global_formats"] = "all";
+    return out;
+  }
+  json global = json::array();
+  for (const terrain::TileFormatInfo& info : terrain::tile_formats()) {
+    if (change->format_global(info.format)) {
+      global.push_back(info.encoding.empty() ? info.extension : info.encoding);
+    }
+  }
+  out["global_formats"] = global;
+  return out;
+}
+
+std::shared_ptr<const CachedProduct> App::reuse_unchanged_tile(
+    const LoadedVersion& current, const std::string& key, terrain::TileScheme scheme,
+    const terrain::TileAddress& address, terrain::TileFormat format,
+    const terrain::ProductOptions& options) {
+  if (current.version.version <= 1) return nullptr;
+  StoreResult<SceneVersion> previous =
+      store_->version(current.version.scene_id, current.version.version - 1);
+  if (!previous) return nullptr;
+  std::shared_ptr<const CachedProduct> hit = cache_.find(previous->hash + key);
+  if (!hit && disk_cache_) hit = disk_cache_->find(previous->hash + key);
+  if (!hit) return nullptr;  // nothing to reuse: not worth comparing the versions
+  const Request context{http::verb::get, "/", 11};
+  auto before = load_version(context, *previous);
+  if (!before) return nullptr;
+  // Only when provably identical (docs/tiles.md, "Which tiles an edit changes"): the edit reaches
+  // none of its samples.
+  if (scene_change(*before, current)->tile_may_change(scheme, address, format, options)) {
+    return nullptr;
+  }
+  metrics_.reused_across_versions.fetch_add(1);
+  return hit;
+}
+
+Response App::scene_changes(const Request& request, const std::string& id, const Target& target) {
+  if (!detail::valid_id(id)) {
+    return problem(request, http::status::bad_request, "Bad scene id",
+                   "changes are between versions of one scene: /api/v1/scenes/{id}/changes "
+                   "(no @version)",
+                   "/id");
+  }
+  auto version_param = [&](const char* name) -> terrain::Result<SceneVersion, Response> {
+    const std::string text = target.get(name);
+    std::int64_t number = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), number);
+    if (text.empty() || ec != std::errc() || end != text.data() + text.size() || number < 1) {
+      return problem(request, http::status::bad_request, "Bad version",
+                     std::string(name) + " must be a version number (1, 2, …)",
+                     std::string("/") + name);
+    }
+    StoreResult<SceneVersion> v = store_->version(id, number);
+    if (!v) {
+      return problem(
+          request,
+          v.error().kind == StoreError::Kind::not_found ? http::status::not_found
+                                                        : http::status::service_unavailable,
+          v.error().kind == StoreError::Kind::not_found ? "Not found" : "Store unavailable",
+          v.error().message, std::string("/") + name);
+    }
+    return *v;
+  };
+  auto from = version_param("from");
+  if (!from) return from.error();
+  auto to = version_param("to");
+  if (!to) return to.error();
+  // The tile shape: the same parameters as a tile URL, with the format as `format`.
+  const std::string format = target.get("format", "png");
+  const std::string z = target.get("z");
+  if (z.empty()) {
+    return problem(request, http::status::bad_request, "Bad tile address", "z is required", "/z");
+  }
+  const bool mesh = format == "terrain" || format == "glb" || format == "drc";
+  auto shape =
+      detail::tile_shape(request, {mesh ? "mesh" : "tiles", z, "0", "0." + format}, target.query);
+  if (!shape) return shape.error();
+  auto before = load_version(request, *from);
+  if (!before) return before.error();
+  auto after = load_version(request, *to);
+  if (!after) return after.error();
+  const auto change = scene_change(*before, *after);
+  bool truncated = false;
+  const std::vector<terrain::TileAddress> tiles = change->changed_tiles(
+      shape->scheme, shape->address.z, shape->format, shape->options, kMaxChangedTiles, &truncated);
+  json list = json::array();
+  for (const terrain::TileAddress& a : tiles) list.push_back({a.x, a.y});
+  json body = changed_between(*before, *after);
+  body["scene"] = id;
+  body["from"] = from->version;
+  body["to"] = to->version;
+  body["scheme"] = terrain::scheme_name(shape->scheme);
+  body["z"] = shape->address.z;
+  body["format"] = format;
+  body["tiles"] = std::move(list);
+  body["truncated"] = truncated;
+  Response r = detail::json_response(request, http::status::ok, body);
+  // Both versions are immutable, so is what differs between them.
+  r.set(http::field::cache_control, "public, max-age=31536000, immutable");
+  return r;
 }
 
 }  // namespace server

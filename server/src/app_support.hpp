@@ -6,7 +6,10 @@
 #include <string_view>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "server/app.hpp"
+#include "terrain/tile_products.hpp"
 
 namespace server {
 
@@ -26,5 +29,23 @@ namespace server::detail {
 
 /// Scene ids: 1 to 64 characters of a-z, 0-9, '-' and '_'.
 bool valid_id(std::string_view id);
+
+/// A JSON answer, gzipped when the client accepts it and the body is worth compressing.
+Response json_response(const Request& request, http::status status, const nlohmann::json& body,
+                       std::string_view media_type = "application/json");
+
+/// What a tile URL asks for, beyond its scene.
+struct TileShape {
+  terrain::TileScheme scheme{};
+  terrain::TileAddress address{};
+  terrain::TileFormat format{};
+  terrain::ProductOptions options;
+};
+/// Parses /tiles/{z}/{x}/{y}.{ext} or /mesh/{z}/{x}/{y}.{ext} (`rest`, four segments) with its
+/// query (scheme, encoding, size, border, grid, max_error) as a scene tile request; the
+/// refusal names the field.
+terrain::Result<TileShape, Response> tile_shape(const Request& request,
+                                                const std::vector<std::string>& rest,
+                                                const std::map<std::string, std::string>& query);
 
 }  // namespace server::detail

@@ -71,6 +71,11 @@ std::string Metrics::prometheus(const ProductCache& cache) const {
   out << "# HELP terrain_generation_rejected_total Requests refused with 503 (queue full).\n"
          "# TYPE terrain_generation_rejected_total counter\nterrain_generation_rejected_total "
       << rejected.load() << "\n";
+  out << "# HELP terrain_cache_reused_across_versions_total Tiles of a new version answered "
+         "with the previous version's bytes, which the edit provably left unchanged.\n"
+         "# TYPE terrain_cache_reused_across_versions_total counter\n"
+         "terrain_cache_reused_across_versions_total "
+      << reused_across_versions.load() << "\n";
   out << "# HELP terrain_live_connections Open live-editing WebSockets.\n"
          "# TYPE terrain_live_connections gauge\nterrain_live_connections "
       << live_connections.load() << "\n";

@@ -90,24 +90,25 @@ terrain::Result<bool, EditRejection> check_patch(const json& ops) {
   return true;
 }
 
-terrain::Result<json, EditRejection> rebase_and_apply(const json& ops, const json& base,
+terrain::Result<json, EditRejection> rebase_and_apply(const json& ops,
+                                                      const std::vector<NewerChange>& newer,
                                                       const json& head) {
   if (auto checked = check_patch(ops); !checked) return checked.error();
-  if (base != head) {
-    // Every value that changed since the author's version: the ops must not touch them.
-    const json changes = json::diff(base, head);
-    for (std::size_t i = 0; i < ops.size(); ++i) {
-      for (const char* field : {"path", "from"}) {
-        if (!ops[i].contains(field)) continue;
-        const auto mine = tokens(ops[i][field].get<std::string>());
-        for (const json& change : changes) {
+  for (std::size_t i = 0; i < ops.size(); ++i) {
+    for (const char* field : {"path", "from"}) {
+      if (!ops[i].contains(field)) continue;
+      const auto mine = tokens(ops[i][field].get<std::string>());
+      for (const NewerChange& version : newer) {
+        for (const json& change : version.patch) {
           for (const char* theirs_field : {"path", "from"}) {
             if (!change.contains(theirs_field)) continue;
             const std::string theirs = change[theirs_field].get<std::string>();
             if (overlaps(mine, tokens(theirs))) {
               return EditRejection{409, "Edit conflict",
                                    (theirs.empty() ? std::string("the document") : theirs) +
-                                       " changed since the edit's base version",
+                                       " was changed by version " +
+                                       std::to_string(version.version) + " (" + version.author +
+                                       ") after the edit's base version",
                                    "/ops/" + std::to_string(i) + "/" + field};
             }
           }

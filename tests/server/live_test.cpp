@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <set>
 #include <thread>
 
 #include "http_harness.hpp"
@@ -413,6 +414,147 @@ TEST_F(LiveEditing, SubscribersPerSceneAreBounded) {
     std::this_thread::sleep_for(Millis(50));
   }
   EXPECT_EQ(status, 101);
+}
+
+}  // namespace
+
+namespace {
+
+using namespace http_test;
+
+class LiveInvalidation : public LiveEditing {};
+
+TEST_F(LiveInvalidation, VersionEventsBoundWhatTheEditChanged) {
+  const std::string id = create_scene("changed-box");
+  LiveClient author(port(), id);
+  author.subscribe(true);
+  author.send(edit(1, set_elevation(0, 250)));
+  const json changed = author.next_of("version")["changed"];
+  EXPECT_EQ(changed["everything"], false) << changed.dump();
+  // Disc 0: centre (-1000, -1000), radius 500.
+  ASSERT_TRUE(changed["box"].is_object()) << changed.dump();
+  EXPECT_LE(changed["box"]["min"][0].get<double>(), -1500.0);
+  EXPECT_LE(changed["box"]["min"][1].get<double>(), -1500.0);
+  EXPECT_GE(changed["box"]["max"][0].get<double>(), -500.0);
+  EXPECT_GE(changed["box"]["max"][1].get<double>(), -500.0);
+  EXPECT_LT(changed["box"]["max"][0].get<double>(), 0.0);
+  EXPECT_LT(changed["box"]["max"][1].get<double>(), 0.0);
+  // Changing the seed changes every tile.
+  author.send(edit(2, json::array({{{"op", "replace"}, {"path", "/seed"}, {"value", 7}}})));
+  EXPECT_EQ(author.next_of("version")["changed"]["everything"], true);
+}
+
+TEST_F(LiveInvalidation, TheInvalidatedTilesAreExactlyTheTilesWhoseBytesChanged) {
+  const std::string id = create_scene("exact");
+  LiveClient author(port(), id);
+  author.subscribe(true);
+  // Move disc 1 (centre (1000, -1000)) and raise disc 2.
+  author.send(edit(
+      1,
+      json::array({{{"op", "replace"}, {"path", "/root/children/1/center"}, {"value", {700, -600}}},
+                   {{"op", "replace"}, {"path", "/root/children/2/elevation"}, {"value", 180}}})));
+  ASSERT_EQ(author.next_of("ack")["version"], 2);
+  for (const std::string format : {"png", "tif"}) {
+    for (int z : {2, 3}) {
+      const std::string shape = "scheme=local&size=64&format=" + format;
+      const Response changes =
+          get(port(),
+              "/api/v1/scenes/" + id + "/changes?from=1&to=2&z=" + std::to_string(z) + "&" + shape);
+      ASSERT_EQ(changes.result_int(), 200u) << changes.body();
+      const json body = body_json(changes);
+      EXPECT_EQ(body["truncated"], false);
+      std::set<std::pair<std::int64_t, std::int64_t>> predicted;
+      for (const json& t : body["tiles"]) predicted.emplace(t[0], t[1]);
+      std::set<std::pair<std::int64_t, std::int64_t>> actual;
+      const std::int64_t n = std::int64_t{1} << z;
+      for (std::int64_t x = 0; x < n; ++x) {
+        for (std::int64_t y = 0; y < n; ++y) {
+          const std::string tile = "/tiles/" + std::to_string(z) + "/" + std::to_string(x) + "/" +
+                                   std::to_string(y) + "." + format + "?scheme=local&size=64";
+          const Response before = get(port(), "/api/v1/scenes/" + id + "@1" + tile);
+          const Response after = get(port(), "/api/v1/scenes/" + id + "@2" + tile);
+          ASSERT_EQ(before.result_int(), 200u) << before.body();
+          ASSERT_EQ(after.result_int(), 200u) << after.body();
+          if (before.body() != after.body()) actual.emplace(x, y);
+        }
+      }
+      EXPECT_FALSE(actual.empty());
+      EXPECT_EQ(predicted, actual) << format << " z=" << z;
+    }
+  }
+}
+
+TEST_F(LiveInvalidation, UntouchedTilesOfANewVersionKeepTheirCachedBytes) {
+  const std::string id = create_scene("reuse");
+  LiveClient author(port(), id);
+  author.subscribe(true);
+  author.send(edit(1, set_elevation(0, 250)));  // one disc of four
+  ASSERT_EQ(author.next_of("ack")["version"], 2);
+  const json changes =
+      body_json(get(port(), "/api/v1/scenes/" + id + "/changes?from=1&to=2&z=2&scheme=local"));
+  ASSERT_FALSE(changes["tiles"].empty());
+  std::set<std::pair<std::int64_t, std::int64_t>> changed;
+  for (const json& t : changes["tiles"]) changed.emplace(t[0], t[1]);
+  std::pair<std::int64_t, std::int64_t> untouched{-1, -1};
+  for (std::int64_t x = 0; x < 4 && untouched.first < 0; ++x) {
+    for (std::int64_t y = 0; y < 4 && untouched.first < 0; ++y) {
+      if (!changed.contains({x, y})) untouched = {x, y};
+    }
+  }
+  ASSERT_GE(untouched.first, 0);
+  auto tile = [&](int version, std::pair<std::int64_t, std::int64_t> at) {
+    return get(port(), "/api/v1/scenes/" + id + "@" + std::to_string(version) + "/tiles/2/" +
+                           std::to_string(at.first) + "/" + std::to_string(at.second) +
+                           ".png?scheme=local&size=64");
+  };
+  const Response before = tile(1, untouched);
+  const Response edited_before = tile(1, *changed.begin());
+  const double reused = metric(port(), "terrain_cache_reused_across_versions_total");
+  const Response after = tile(2, untouched);
+  EXPECT_EQ(after.body(), before.body());
+  EXPECT_EQ(header(after, http::field::etag), header(before, http::field::etag));
+  EXPECT_EQ(metric(port(), "terrain_cache_reused_across_versions_total"), reused + 1);
+  // A tile the edit reaches is generated anew.
+  EXPECT_NE(tile(2, *changed.begin()).body(), edited_before.body());
+  EXPECT_EQ(metric(port(), "terrain_cache_reused_across_versions_total"), reused + 1);
+}
+
+TEST_F(LiveInvalidation, BadChangeQueriesNameTheirField) {
+  const std::string id = create_scene("changes-bad");
+  auto status_and_pointer = [&](const std::string& query) {
+    const Response r = get(port(), "/api/v1/scenes/" + id + "/changes?" + query);
+    return std::pair{r.result_int(), json::parse(r.body(), nullptr, false).value("pointer", "")};
+  };
+  EXPECT_EQ(status_and_pointer("to=1&z=2"), (std::pair{400u, std::string("/from")}));
+  EXPECT_EQ(status_and_pointer("from=1&to=x&z=2"), (std::pair{400u, std::string("/to")}));
+  EXPECT_EQ(status_and_pointer("from=1&to=9&z=2"), (std::pair{404u, std::string("/to")}));
+  EXPECT_EQ(status_and_pointer("from=1&to=1"), (std::pair{400u, std::string("/z")}));
+  EXPECT_EQ(status_and_pointer("from=1&to=1&z=2&format=bmp"),
+            (std::pair{404u, std::string("/format")}));
+  EXPECT_EQ(status_and_pointer("from=1&to=1&z=2&scheme=mars").first, 400u);
+  const Response same = get(port(), "/api/v1/scenes/" + id + "/changes?from=1&to=1&z=2");
+  EXPECT_EQ(body_json(same)["tiles"], json::array());
+}
+
+}  // namespace
+
+namespace {
+
+using namespace http_test;
+
+TEST_F(LiveEditing, AConnectionsOwnQuickEditsDoNotConflict) {
+  const std::string id = create_scene("own-edits");
+  LiveClient author(port(), id);
+  author.subscribe(true);
+  // Three changes of one field sent at once, all against version 1: each is rebased onto the
+  // author's own previous one.
+  for (int i = 0; i < 3; ++i) author.send(edit(1, set_elevation(0, 110 + i)));
+  for (int i = 0; i < 3; ++i) {
+    const json ack = author.next_of("ack");
+    EXPECT_EQ(ack["version"], 2 + i) << ack.dump();
+  }
+  EXPECT_EQ(body_json(get(port(), "/api/v1/scenes/" + id))["root"]["children"][0]["elevation"],
+            112);
 }
 
 }  // namespace

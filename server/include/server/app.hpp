@@ -21,6 +21,7 @@
 #include "server/metrics.hpp"
 #include "server/static_files.hpp"
 #include "server/store.hpp"
+#include "terrain/scene_diff.hpp"
 #include "terrain/tile_source.hpp"
 
 namespace server {
@@ -46,7 +47,8 @@ struct LiveConnection {
   std::string author = "anonymous";
   double edit_tokens = 0.0;  ///< the edit rate limit's token bucket
   std::chrono::steady_clock::time_point refilled{};
-  std::shared_ptr<LiveSubscriber> self;  ///< where replies and events go
+  std::shared_ptr<LiveSubscriber> self;    ///< where replies and events go
+  std::vector<std::int64_t> own_versions;  ///< versions this connection made (the latest ones)
 };
 
 class App {
@@ -118,6 +120,18 @@ class App {
                                const SceneVersion& previous);
   /// What differs between two versions' tiles (docs/live.md, `changed`).
   nlohmann::json changed_between(const LoadedVersion& before, const LoadedVersion& after);
+  /// The comparison of two versions (computed once, kept for a while).
+  std::shared_ptr<const terrain::SceneChange> scene_change(const LoadedVersion& before,
+                                                           const LoadedVersion& after);
+  /// The previous version's cached bytes of a tile, when the edit provably left the tile
+  /// untouched (docs/tiles.md, "Which tiles an edit changes"); else null. `key` is the cache key
+  /// less the version hash.
+  std::shared_ptr<const CachedProduct> reuse_unchanged_tile(const LoadedVersion& current,
+                                                            const std::string& key,
+                                                            terrain::TileScheme scheme,
+                                                            const terrain::TileAddress& address,
+                                                            terrain::TileFormat format,
+                                                            const terrain::ProductOptions& options);
   void live_subscribe(LiveConnection& connection, const nlohmann::json& message);
   void live_edit(LiveConnection& connection, const nlohmann::json& message);
 
@@ -154,6 +168,9 @@ class App {
   void forget_head(const std::string& id);
 
   LiveHub live_;
+  std::mutex changes_mutex_;
+  // Comparisons of versions by "<before hash>><after hash>" (bounded).
+  std::unordered_map<std::string, std::shared_ptr<const terrain::SceneChange>> changes_;
 
   mutable std::mutex planets_mutex_;
   std::unordered_map<std::string, LoadedPlanet> planets_;  // by id (bounded; ids never go stale)

@@ -22,9 +22,11 @@ class Metrics {
   void request(std::string_view route, int status, double seconds);
   void generation(std::string_view product, double seconds, std::string_view backend);
 
-  std::atomic<int> queued{0};            ///< requests waiting for or running on the generation pool
-  std::atomic<int> rejected{0};          ///< requests refused because the queue was full
-  std::atomic<int> live_connections{0};  ///< open live WebSockets
+  std::atomic<int> queued{0};    ///< requests waiting for or running on the generation pool
+  std::atomic<int> rejected{0};  ///< requests refused because the queue was full
+  /// Tiles of a new version answered with the previous version's bytes (provably the same).
+  std::atomic<std::int64_t> reused_across_versions{0};
+  std::atomic<int> live_connections{0};            ///< open live WebSockets
   std::atomic<std::int64_t> live_oversize{0};      ///< live connections closed with 1009
   std::atomic<std::int64_t> live_slow_readers{0};  ///< live connections cut for their backlog
 

@@ -2,7 +2,9 @@
 // head that moved since the author looked (docs/live.md).
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -26,12 +28,19 @@ inline constexpr std::size_t kMaxEditOps = 256;
 /// from and value as RFC 6902 asks); pointers in the rejection are relative to the message.
 terrain::Result<bool, EditRejection> check_patch(const nlohmann::json& ops);
 
-/// Applies `ops`, written against `base`, to `head`. When the two differ, the edit is rebased:
-/// it applies to `head` unless one of its paths overlaps (one is a prefix of the other) a value
-/// that changed between `base` and `head` — then it is a 409 conflict naming that path. A patch
-/// that does not apply (missing path, failed test) is a 400 naming the operation.
-terrain::Result<nlohmann::json, EditRejection> rebase_and_apply(const nlohmann::json& ops,
-                                                                const nlohmann::json& base,
-                                                                const nlohmann::json& head);
+/// A version that landed after an edit's base, as the JSON Patch from the version before it.
+struct NewerChange {
+  std::int64_t version = 0;
+  std::string author;
+  nlohmann::json patch;  ///< nlohmann::json::diff(previous version, this version)
+};
+
+/// Applies `ops` to `head`. `newer` are the versions that landed since the edit's base version
+/// (other authors' only: a connection's own edits never conflict with its later ones). The edit is
+/// rebased onto the head unless one of its paths overlaps a path one of them changed (one is a
+/// prefix of the other; "-" appends never overlap) — then it is a 409 conflict naming that path
+/// and version. A patch that does not apply (missing path, failed test) is a 400 naming the op.
+terrain::Result<nlohmann::json, EditRejection> rebase_and_apply(
+    const nlohmann::json& ops, const std::vector<NewerChange>& newer, const nlohmann::json& head);
 
 }  // namespace server
