@@ -22,8 +22,12 @@ void LiveHub::Channel::publish(std::int64_t version, std::shared_ptr<const std::
   for (const auto& weak : subscribers_) {
     if (auto subscriber = weak.lock()) subscriber->deliver(event);
   }
+  recent_bytes_ += event->size();
   recent_.emplace_back(version, std::move(event));
-  while (recent_.size() > kRecentEvents) recent_.pop_front();
+  while (recent_.size() > kRecentEvents || (recent_bytes_ > kRecentBytes && recent_.size() > 1)) {
+    recent_bytes_ -= recent_.front().second->size();
+    recent_.pop_front();
+  }
 }
 
 std::shared_ptr<const std::string> LiveHub::Channel::recent(std::int64_t version) const {

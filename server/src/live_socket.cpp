@@ -20,8 +20,9 @@ using asio::use_awaitable;
 
 class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_this<LiveSocket> {
  public:
-  LiveSocket(tcp::socket socket, const Config& config)
-      : ws_(std::move(socket)),
+  LiveSocket(tcp::socket socket, const Config& config, Metrics& metrics)
+      : metrics_(metrics),
+        ws_(std::move(socket)),
         wake_(ws_.get_executor()),
         queue_bytes_(config.live_queue_bytes),
         queue_messages_(config.live_queue_messages) {
@@ -34,9 +35,11 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
     const auto size = static_cast<std::int64_t>(message->size());
     const std::int64_t bytes = owed_bytes_.fetch_add(size) + size;
     const int messages = owed_messages_.fetch_add(1) + 1;
+    metrics_.live_backlog_bytes.fetch_add(size);
     if (bytes > queue_bytes_ || messages > queue_messages_) {
       owed_bytes_.fetch_sub(size);
       owed_messages_.fetch_sub(1);
+      metrics_.live_backlog_bytes.fetch_sub(size);
       if (!overflowed_.exchange(true)) {
         asio::post(ws_.get_executor(), [self = shared_from_this()] { self->cut("slow reader"); });
       }
@@ -49,6 +52,11 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
   }
 
   websocket::stream<tcp::socket>& ws() { return ws_; }
+
+  ~LiveSocket() override {
+    // Messages posted but never queued (the connection ended first) are owed no more.
+    metrics_.live_backlog_bytes.fetch_sub(owed_bytes_.load());
+  }
   bool subscribed = false;  ///< the connection's thread only
   bool overflowed() const { return overflowed_; }
 
@@ -67,11 +75,19 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
       co_await self->ws_.async_write(asio::buffer(*message),
                                      asio::redirect_error(use_awaitable, ec));
       self->queue_.pop_front();
-      self->owed_bytes_.fetch_sub(static_cast<std::int64_t>(message->size()));
-      self->owed_messages_.fetch_sub(1);
+      self->forget(*message);
       if (ec) break;
     }
+    for (const auto& left : self->queue_) self->forget(*left);
     self->queue_.clear();
+  }
+
+  // A message left the backlog (sent, or dropped with the connection).
+  void forget(const std::string& message) {
+    const auto size = static_cast<std::int64_t>(message.size());
+    owed_bytes_.fetch_sub(size);
+    owed_messages_.fetch_sub(1);
+    metrics_.live_backlog_bytes.fetch_sub(size);
   }
 
   /// Ends the connection without a close handshake (a full send buffer would hold it back).
@@ -112,6 +128,7 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
   }
 
  private:
+  Metrics& metrics_;
   websocket::stream<tcp::socket> ws_;
   asio::steady_timer wake_;                               // cancelled to wake the writer
   std::deque<std::shared_ptr<const std::string>> queue_;  // the connection's thread only
@@ -144,7 +161,7 @@ void LiveSessions::close_all() {
 awaitable<void> serve_live(tcp::socket socket, Request upgrade, LiveConnection connection, App& app,
                            LiveSessions& sessions) {
   const Config& config = app.config();
-  auto session = std::make_shared<LiveSocket>(std::move(socket), config);
+  auto session = std::make_shared<LiveSocket>(std::move(socket), config, app.metrics());
   auto& ws = session->ws();
   // Beast pings a connection that has been silent for half the idle time and drops it when the
   // whole idle time passes without a frame (a pong counts).

@@ -79,6 +79,10 @@ std::string Metrics::prometheus(const ProductCache& cache) const {
   out << "# HELP terrain_live_connections Open live-editing WebSockets.\n"
          "# TYPE terrain_live_connections gauge\nterrain_live_connections "
       << live_connections.load() << "\n";
+  out << "# HELP terrain_live_backlog_bytes Bytes queued for live connections and not yet "
+         "written to their sockets.\n# TYPE terrain_live_backlog_bytes gauge\n"
+         "terrain_live_backlog_bytes "
+      << live_backlog_bytes.load() << "\n";
   out << "# HELP terrain_live_oversize_total Live connections closed for an oversize message "
          "(1009).\n# TYPE terrain_live_oversize_total counter\nterrain_live_oversize_total "
       << live_oversize.load() << "\n";

@@ -46,10 +46,13 @@ class LiveHub {
     std::mutex mutex_;
     std::vector<std::weak_ptr<LiveSubscriber>> subscribers_;
     std::deque<std::pair<std::int64_t, std::shared_ptr<const std::string>>> recent_;
+    std::size_t recent_bytes_ = 0;
   };
 
-  /// Versions whose events are kept for catch-up without rereading the store.
+  /// Versions whose events are kept for catch-up without rereading the store: the latest 256,
+  /// within 8 MiB (edits may carry large ops).
   static constexpr std::size_t kRecentEvents = 256;
+  static constexpr std::size_t kRecentBytes = 8u << 20;
 
   /// The channel of a scene (created on first use; channels live as long as the hub).
   std::shared_ptr<Channel> channel(const std::string& scene);
