@@ -556,3 +556,34 @@ TEST_F(LiveEditing, AConnectionsOwnQuickEditsDoNotConflict) {
 }
 
 }  // namespace
+
+namespace {
+
+using namespace http_test;
+
+TEST(LiveLimits, SilentConnectionsArePingedAndDroppedWhenTheyDoNotAnswer) {
+  TempDir dir("live-idle");
+  ServerProcess server(dir.path() / "data",
+                       {"--write-token", kToken, "--live-ping-interval-ms", "100"});
+  const Response created =
+      fetch(server.port(), "POST", "/api/v1/scenes?id=idle", with_token(), quad_scene());
+  ASSERT_EQ(created.result_int(), 201u) << created.body();
+  LiveClient answering(server.port(), "idle");
+  answering.subscribe(false);
+  LiveClient silent(server.port(), "idle");
+  silent.subscribe(false);
+  EXPECT_EQ(metric(server.port(), "terrain_live_connections"), 2);
+  // A client that reads answers the server's pings (WebSocket pongs) and stays through many idle
+  // periods; the one that never reads cannot, and is dropped after 200 ms of silence.
+  std::thread later([&] {
+    std::this_thread::sleep_for(Millis(1000));
+    fetch(server.port(), "PUT", "/api/v1/scenes/idle", with_token(), quad_scene());
+  });
+  const json version = answering.next_of("version", Millis(10000));
+  later.join();
+  EXPECT_EQ(version["version"], 2);
+  EXPECT_EQ(metric(server.port(), "terrain_live_connections"), 1);
+  server.stop();
+}
+
+}  // namespace
