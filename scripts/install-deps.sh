@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages the project builds and tests with. Idempotent: it asks apt only for
 # packages that are missing, so a second run costs a dpkg query. --tests adds what only the test
-# suite needs (the browser the viewer's tests drive).
+# suite needs (the browser the viewer's tests drive, the servers the cluster tests start).
 set -euo pipefail
 
 packages=(
@@ -9,11 +9,12 @@ packages=(
   nlohmann-json3-dev libssl-dev libopenimageio-dev openimageio-tools
   libgtest-dev libgmock-dev libbenchmark-dev
   libdraco-dev libgeographiclib-dev zlib1g-dev libtiff-dev
-  libboost1.81-dev libtomlplusplus-dev libsqlite3-dev
+  libboost1.81-dev libtomlplusplus-dev libsqlite3-dev libhiredis-dev
   gdal-bin nodejs clang libclang-rt-14-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
 )
-[ "${1:-}" = "--tests" ] && packages+=(chromium)
+# The tests also run a Redis of their own (shared-cache tests).
+[ "${1:-}" = "--tests" ] && packages+=(chromium redis-server)
 
 missing=()
 for p in "${packages[@]}"; do

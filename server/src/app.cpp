@@ -490,6 +490,12 @@ App::App(Config config, std::unique_ptr<Store> store)
       store_(std::move(store)),
       cache_(config_.cache_bytes),
       client_(StaticFiles::load(config_.client_dir)) {
+  if (RedisCache::Options redis;
+      !config_.redis_url.empty() && RedisCache::parse_url(config_.redis_url, redis)) {
+    redis.ttl_seconds = config_.redis_ttl_seconds;
+    redis.timeout_ms = config_.redis_timeout_ms;
+    redis_ = std::make_unique<RedisCache>(redis);
+  }
   if (!config_.disk_cache_dir.empty()) {
     disk_cache_ = std::make_unique<DiskCache>(config_.disk_cache_dir, config_.disk_cache_bytes);
   }
@@ -660,8 +666,9 @@ Outcome App::route(const Request& request, const Target& target) {
   }
   if (s.size() == 1 && s[0] == "metrics") {
     if (!read) return not_allowed("GET, HEAD");
-    Response r = make_response(request, http::status::ok, metrics_.prometheus(cache_),
-                               "text/plain; version=0.0.4");
+    Response r =
+        make_response(request, http::status::ok, metrics_.prometheus(cache_) + redis_metrics(),
+                      "text/plain; version=0.0.4");
     r.set(http::field::cache_control, "no-store");
     return r;
   }
@@ -1197,11 +1204,9 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   const bool keep_alive = request.keep_alive();
 
   if (auto hit = cache_.find(cache_key)) return respond(hit);
-  if (disk_cache_) {
-    if (auto hit = disk_cache_->find(cache_key)) {
-      cache_.insert(cache_key, hit);
-      return respond(hit);
-    }
+  if (auto hit = find_shared(cache_key)) {
+    cache_.insert(cache_key, hit);
+    return respond(hit);
   }
   if (auto reused = reuse_unchanged_tile(loaded, query->key(), query->scheme, address,
                                          query->format, options)) {
@@ -1247,7 +1252,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     cached->file = SealedFile::create(cached->body);
     cached->backend = product->backend;
     cache_.insert(cache_key, cached);
-    if (disk_cache_) disk_cache_->insert(cache_key, *cached);
+    store_shared(cache_key, *cached);
     return respond(cached);
   };
   return deferred;
@@ -1803,11 +1808,9 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
     reply.gray16 = terrain::gray16_encoding_for(world->elevation_range());
   }
   if (auto hit = cache_.find(cache_key)) return product_response(reply, hit);
-  if (disk_cache_) {
-    if (auto hit = disk_cache_->find(cache_key)) {
-      cache_.insert(cache_key, hit);
-      return product_response(reply, hit);
-    }
+  if (auto hit = find_shared(cache_key)) {
+    cache_.insert(cache_key, hit);
+    return product_response(reply, hit);
   }
   const terrain::TileAddress address = query->address;
   const terrain::TileFormat format = query->format;
@@ -1838,7 +1841,7 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
     cached->file = SealedFile::create(cached->body);
     cached->backend = "cpu";  // planets have no GPU path yet
     cache_.insert(cache_key, cached);
-    if (disk_cache_) disk_cache_->insert(cache_key, *cached);
+    store_shared(cache_key, *cached);
     return product_response(reply, cached);
   };
   return deferred;
@@ -1938,6 +1941,45 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
     return respond(*cached);
   };
   return deferred;
+}
+
+std::shared_ptr<const CachedProduct> App::find_shared(const std::string& key) {
+  if (disk_cache_) {
+    if (auto hit = disk_cache_->find(key)) return hit;
+  }
+  if (redis_) {
+    if (auto hit = redis_->find(key)) {
+      if (disk_cache_) disk_cache_->insert(key, *hit);
+      return hit;
+    }
+  }
+  return nullptr;
+}
+
+void App::store_shared(const std::string& key, const CachedProduct& product) {
+  if (disk_cache_) disk_cache_->insert(key, product);
+  if (redis_) redis_->insert(key, product);
+}
+
+std::string App::redis_metrics() const {
+  if (!redis_) return "";
+  std::string out;
+  auto line = [&](std::string_view name, std::string_view type, std::string_view help,
+                  std::int64_t value) {
+    out += "# HELP " + std::string(name) + " " + std::string(help) + "\n# TYPE " +
+           std::string(name) + " " + std::string(type) + "\n" + std::string(name) + " " +
+           std::to_string(value) + "\n";
+  };
+  line("terrain_redis_up", "gauge",
+       "1 when the last exchange with the shared Redis cache worked; 0: products are generated "
+       "instead",
+       redis_->up() ? 1 : 0);
+  line("terrain_redis_hits_total", "counter", "Products found in Redis.", redis_->hits());
+  line("terrain_redis_misses_total", "counter", "Products Redis did not have.", redis_->misses());
+  line("terrain_redis_errors_total", "counter",
+       "Failed exchanges with Redis (timeouts, refused connections, errors, unreadable entries).",
+       redis_->errors());
+  return out;
 }
 
 }  // namespace server

@@ -1,5 +1,7 @@
 #include "server/config.hpp"
 
+#include "server/redis_cache.hpp"
+
 #include <toml++/toml.h>
 
 #include <charconv>
@@ -56,6 +58,13 @@ const std::vector<Option>& options() {
        0, "directory of the on-disk tile cache (empty = none)"},
       {"cache.disk_bytes", "--disk-cache-bytes", "TERRAIN_DISK_CACHE_BYTES",
        &Config::disk_cache_bytes, 0, kBig, "on-disk tile cache budget"},
+      {"cache.redis_url", "--redis-url", "TERRAIN_REDIS_URL", &Config::redis_url, 0, 0,
+       "Redis shared by replicas as a product cache, redis://host:port (empty = none)"},
+      {"cache.redis_ttl_seconds", "--redis-ttl-seconds", "TERRAIN_REDIS_TTL_SECONDS",
+       &Config::redis_ttl_seconds, 1, kIntMax, "time to live of products stored in Redis"},
+      {"cache.redis_timeout_ms", "--redis-timeout-ms", "TERRAIN_REDIS_TIMEOUT_MS",
+       &Config::redis_timeout_ms, 1, 60000,
+       "connect and command timeout of Redis (a slower Redis is skipped for a while)"},
       {"store.data_dir", "--data-dir", "TERRAIN_DATA_DIR", &Config::data_dir, 0, 0,
        "directory of the SQLite store (terrain.sqlite3)"},
       {"store.scenes_dir", "--scenes-dir", "TERRAIN_SCENES_DIR", &Config::scenes_dir, 0, 0,
@@ -358,6 +367,11 @@ Result<Startup> load_config(std::span<const std::string_view> args,
   const std::string& level = startup.config.log_level;
   if (level != "error" && level != "warn" && level != "info" && level != "debug") {
     return Error{"log level '" + level + "' is not error, warn, info or debug", "/log.level"};
+  }
+  if (RedisCache::Options redis; !startup.config.redis_url.empty() &&
+                                 !RedisCache::parse_url(startup.config.redis_url, redis)) {
+    return Error{"redis url '" + startup.config.redis_url + "' is not redis://host[:port]",
+                 "/cache.redis_url"};
   }
   return startup;
 }

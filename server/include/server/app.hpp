@@ -19,6 +19,7 @@
 #include "server/http.hpp"
 #include "server/live.hpp"
 #include "server/metrics.hpp"
+#include "server/redis_cache.hpp"
 #include "server/static_files.hpp"
 #include "server/store.hpp"
 #include "terrain/scene_diff.hpp"
@@ -157,6 +158,14 @@ class App {
   Metrics metrics_;
   ProductCache cache_;
   std::unique_ptr<DiskCache> disk_cache_;  ///< null unless cache.disk_dir is set
+  std::unique_ptr<RedisCache> redis_;      ///< null unless cache.redis_url is set
+  /// A product from the caches behind the in-memory LRU (disk, then Redis), copied into the
+  /// faster ones; null when none has it.
+  std::shared_ptr<const CachedProduct> find_shared(const std::string& key);
+  /// Stores a new product in the caches behind the in-memory LRU.
+  void store_shared(const std::string& key, const CachedProduct& product);
+  /// The Redis lines of /metrics.
+  std::string redis_metrics() const;
   StaticFiles client_;
   std::shared_ptr<terrain::PointsBackend> backend_;  ///< null: the CPU
   std::string backend_reason_;

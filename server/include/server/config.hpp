@@ -35,6 +35,9 @@ struct Config {
   std::int64_t cache_bytes = 256ll << 20;  ///< in-memory LRU budget
   std::string disk_cache_dir;              ///< empty = no on-disk cache
   std::int64_t disk_cache_bytes = 2ll << 30;
+  std::string redis_url;  ///< shared product cache ("redis://host:port"); empty = none
+  int redis_ttl_seconds = 7 * 24 * 3600;  ///< entries expire after this long
+  int redis_timeout_ms = 100;             ///< per command; a slower Redis counts as down
   // storage
   std::string data_dir = "data";               ///< holds terrain.sqlite3
   std::string scenes_dir = "config/scenes";    ///< built-in scenes loaded on first start
