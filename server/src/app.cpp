@@ -507,6 +507,24 @@ App::App(Config config, std::unique_ptr<Store> store)
     // backend = gpu with no working device: serve from the CPU and say so, rather than fail.
     backend_reason_ = "cpu: backend = gpu but " + choice.error().message;
   }
+  if (RedisCache::Options where;
+      !config_.live_redis_url.empty() && RedisCache::parse_url(config_.live_redis_url, where)) {
+    where.timeout_ms = config_.redis_timeout_ms;
+    bus_ = std::make_unique<LiveBus>(where,
+                                     [this](const std::string& scene, const std::string& event) {
+                                       on_remote_event(scene, event);
+                                     });
+    // News can be lost (Redis down, a replica killed between storing and publishing): the
+    // store is read now and then for the scenes someone follows.
+    sweeper_ = std::jthread([this](std::stop_token stop) {
+      while (!stop.stop_requested()) {
+        for (int slept = 0; slept < config_.live_sweep_ms && !stop.stop_requested(); slept += 10) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+        if (!stop.stop_requested()) sweep_heads();
+      }
+    });
+  }
 }
 
 std::string_view App::route_label(const Request& request) {

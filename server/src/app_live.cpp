@@ -194,12 +194,18 @@ void App::live_subscribe(LiveConnection& c, const json& message) {
     c.self->deliver(text(error_message(503, "Store unavailable", head.error().message, "")));
     return;
   }
+  // Versions another replica stored that this channel has not published yet go to its present
+  // subscribers first, so that nobody misses them when the newcomer moves the channel on.
+  if (channel->last() > 0 && head->version > channel->last()) {
+    publish_version(c.scene, *channel, head->version, nullptr);
+  }
   if (!channel->join(c.self, config_.live_max_subscribers)) {
     c.self->deliver(text(error_message(503, "Too many viewers",
                                        "the scene has the most live connections allowed", "")));
     return;
   }
   c.subscribed = true;
+  channel->advance_to(head->version);
   c.self->deliver(text({{"type", "welcome"},
                         {"scene", c.scene},
                         {"head", head->version},
@@ -314,70 +320,81 @@ void App::live_edit(LiveConnection& c, const json& message) {
   Request context{http::verb::put, "/api/v1/scenes/" + c.scene, 11};
   auto channel = live_.channel(c.scene);
   auto held = channel->lock();  // one edit at a time per scene, published in version order
-  StoreResult<SceneVersion> head = store_->head(c.scene);
-  if (!head) return reject({503, "Store unavailable", head.error().message, ""});
-  if (base_number > head->version) {
-    return reject({409, "Unknown version",
-                   "the scene is at version " + std::to_string(head->version), "/base"});
-  }
-  const json head_doc = json::parse(head->canonical_json, nullptr, false);
-  if (head_doc.is_discarded()) {
-    return reject({500, "Stored scene unreadable", "the head is not JSON", ""});
-  }
-  // What other authors changed since the base, version by version.
-  std::vector<NewerChange> newer;
-  if (base_number < head->version) {
-    if (head->version - base_number > kRebuiltEvents) {
-      return reject({409, "Base too old",
-                     "the edit is " + std::to_string(head->version - base_number) +
-                         " versions behind the head (at most " + std::to_string(kRebuiltEvents) +
-                         "): edit the head",
-                     "/base"});
+  // Replicas write to one store: the head may move between reading it and storing onto it.
+  constexpr int kAttempts = 8;
+  StoreResult<SceneVersion> stored = StoreError{};
+  json ack;
+  for (int attempt = 0; attempt < kAttempts; ++attempt) {
+    StoreResult<SceneVersion> head = store_->head(c.scene);
+    if (!head) return reject({503, "Store unavailable", head.error().message, ""});
+    if (base_number > head->version) {
+      return reject({409, "Unknown version",
+                     "the scene is at version " + std::to_string(head->version), "/base"});
     }
-    StoreResult<std::vector<SceneVersion>> between =
-        store_->versions_after(c.scene, base_number - 1, head->version - base_number + 1);
-    if (!between) return reject({503, "Store unavailable", between.error().message, ""});
-    json previous;
-    for (const SceneVersion& v : *between) {
-      json document = json::parse(v.canonical_json, nullptr, false);
-      const bool own = std::find(c.own_versions.begin(), c.own_versions.end(), v.version) !=
-                       c.own_versions.end();
-      if (v.version > base_number && !own) {
-        newer.push_back({v.version, v.author, json::diff(previous, document)});
+    const json head_doc = json::parse(head->canonical_json, nullptr, false);
+    if (head_doc.is_discarded()) {
+      return reject({500, "Stored scene unreadable", "the head is not JSON", ""});
+    }
+    // What other authors changed since the base, version by version.
+    std::vector<NewerChange> newer;
+    if (base_number < head->version) {
+      if (head->version - base_number > kRebuiltEvents) {
+        return reject({409, "Base too old",
+                       "the edit is " + std::to_string(head->version - base_number) +
+                           " versions behind the head (at most " + std::to_string(kRebuiltEvents) +
+                           "): edit the head",
+                       "/base"});
       }
-      previous = std::move(document);
+      StoreResult<std::vector<SceneVersion>> between =
+          store_->versions_after(c.scene, base_number - 1, head->version - base_number + 1);
+      if (!between) return reject({503, "Store unavailable", between.error().message, ""});
+      json previous;
+      for (const SceneVersion& v : *between) {
+        json document = json::parse(v.canonical_json, nullptr, false);
+        const bool own = std::find(c.own_versions.begin(), c.own_versions.end(), v.version) !=
+                         c.own_versions.end();
+        if (v.version > base_number && !own) {
+          newer.push_back({v.version, v.author, json::diff(previous, document)});
+        }
+        previous = std::move(document);
+      }
     }
-  }
-  auto patched = rebase_and_apply(*ops_it, newer, head_doc);
-  if (!patched) return reject(patched.error());
-  auto scene = parse_stored(patched->dump());
-  if (!scene) {
-    return reject({400, "Invalid scene",
-                   "after the edit, " + scene.error().pointer + ": " + scene.error().message,
-                   "/ops"});
-  }
-  json ack = {{"type", "ack"}, {"rebased", base_number != head->version}};
-  if (!request_id.is_null()) ack["request"] = request_id;
-  if ((*scene)->hash == head->hash) {  // nothing changed: no new version
-    ack["version"] = head->version;
-    ack["hash"] = head->hash;
-    ack["unchanged"] = true;
-    c.self->deliver(text(ack));
-    return;
-  }
-  SceneVersion next;
-  next.name = (*scene)->name;
-  next.hash = (*scene)->hash;
-  next.canonical_json = (*scene)->canonical_text();
-  next.author = c.author;
-  next.ops_json = ops_it->dump();
-  StoreResult<SceneVersion> stored =
-      commit_version(context, *channel, c.scene, std::move(next), head->version);
-  if (!stored) {
-    return reject(
-        {stored.error().kind == StoreError::Kind::conflict ? 409 : 503,
-         stored.error().kind == StoreError::Kind::conflict ? "Edit conflict" : "Store unavailable",
-         stored.error().message, ""});
+    auto patched = rebase_and_apply(*ops_it, newer, head_doc);
+    if (!patched) return reject(patched.error());
+    auto scene = parse_stored(patched->dump());
+    if (!scene) {
+      return reject({400, "Invalid scene",
+                     "after the edit, " + scene.error().pointer + ": " + scene.error().message,
+                     "/ops"});
+    }
+    ack = {{"type", "ack"}, {"rebased", base_number != head->version}};
+    if (!request_id.is_null()) ack["request"] = request_id;
+    if ((*scene)->hash == head->hash) {  // nothing changed: no new version
+      ack["version"] = head->version;
+      ack["hash"] = head->hash;
+      ack["unchanged"] = true;
+      c.self->deliver(text(ack));
+      return;
+    }
+    SceneVersion next;
+    next.name = (*scene)->name;
+    next.hash = (*scene)->hash;
+    next.canonical_json = (*scene)->canonical_text();
+    next.author = c.author;
+    next.ops_json = ops_it->dump();
+    stored = commit_version(context, *channel, c.scene, std::move(next), head->version);
+    // Another replica stored a version between our read of the head and our write (the store
+    // refuses a stale head): rebase onto the newer head and try again.
+    if (!stored && stored.error().kind == StoreError::Kind::conflict && attempt + 1 < kAttempts) {
+      continue;
+    }
+    if (!stored) {
+      return reject({stored.error().kind == StoreError::Kind::conflict ? 409 : 503,
+                     stored.error().kind == StoreError::Kind::conflict ? "Edit conflict"
+                                                                       : "Store unavailable",
+                     stored.error().message, ""});
+    }
+    break;
   }
   ack["version"] = stored->version;
   ack["hash"] = stored->hash;
@@ -397,7 +414,9 @@ StoreResult<SceneVersion> App::commit_version(const Request& context, LiveHub::C
   if (!stored) return stored;
   forget_head(id);
   stored->canonical_json = next.canonical_json;
-  channel.publish(stored->version, text(version_event(context, *stored, *previous)));
+  auto event = text(version_event(context, *stored, *previous));
+  publish_version(id, channel, stored->version, event);
+  if (bus_) bus_->publish(id, *event);
   return stored;
 }
 
@@ -428,6 +447,74 @@ json App::version_event(const Request& context, const SceneVersion& current,
 }  // namespace server
 
 namespace server {
+
+void App::publish_version(const std::string& scene, LiveHub::Channel& channel, std::int64_t version,
+                          std::shared_ptr<const std::string> event) {
+  if (version <= channel.last()) return;  // published already (an echo, a repeat)
+  const Request context{http::verb::get, "/api/v1/scenes/" + scene + "/live", 11};
+  const std::int64_t last = channel.last();
+  if (last > 0 && (version > last + 1 || !event)) {
+    // The versions in between (and this one, without an event), from the store: one event each
+    // for a short gap, else one step from the last published version.
+    const std::int64_t gap = version - last;
+    StoreResult<std::vector<SceneVersion>> stored =
+        gap <= kRebuiltEvents ? store_->versions_after(scene, last - 1, gap + 1)
+                              : StoreResult<std::vector<SceneVersion>>(StoreError{});
+    if (stored && static_cast<std::int64_t>(stored->size()) == gap + 1) {
+      for (std::size_t i = 1; i < stored->size(); ++i) {
+        const SceneVersion& v = (*stored)[i];
+        if (v.version == version && event) break;
+        channel.publish(v.version, text(version_event(context, v, (*stored)[i - 1])));
+      }
+    } else {
+      StoreResult<SceneVersion> from = store_->version(scene, last);
+      StoreResult<SceneVersion> to = store_->version(scene, event ? version - 1 : version);
+      if (!from || !to) return;  // the store is away: the next sweep or event tries again
+      json jump = version_event(context, *to, *from);
+      jump["ops"] = nullptr;
+      channel.publish(to->version, text(jump));
+    }
+  } else if (!event) {
+    StoreResult<SceneVersion> current = store_->version(scene, version);
+    if (!current) return;
+    const SceneVersion none{};
+    StoreResult<SceneVersion> previous =
+        version > 1 ? store_->version(scene, version - 1) : StoreResult<SceneVersion>(none);
+    if (!previous) return;
+    event = text(version_event(context, *current, *previous));
+  }
+  if (event) channel.publish(version, std::move(event));
+}
+
+void App::on_remote_event(const std::string& scene, const std::string& event_text) {
+  if (!detail::valid_id(scene)) return;
+  const json event = json::parse(event_text, nullptr, false);
+  if (event.is_discarded() || !event.contains("version") || !event["version"].is_number_integer()) {
+    return;
+  }
+  const std::int64_t version = event["version"].get<std::int64_t>();
+  forget_head(scene);  // the head moved on another replica
+  auto channel = live_.channel(scene);
+  auto held = channel->lock();
+  if (channel->size() == 0) {
+    channel->publish(version, std::make_shared<const std::string>(event_text));
+    return;
+  }
+  publish_version(scene, *channel, version, std::make_shared<const std::string>(event_text));
+}
+
+void App::sweep_heads() {
+  for (const std::string& scene : live_.followed_scenes()) {
+    StoreResult<SceneVersion> head = store_->head(scene);
+    if (!head) continue;
+    auto channel = live_.channel(scene);
+    auto held = channel->lock();
+    if (head->version > channel->last()) {
+      forget_head(scene);
+      publish_version(scene, *channel, head->version, nullptr);
+    }
+  }
+}
 
 std::shared_ptr<const terrain::SceneChange> App::scene_change(const LoadedVersion& before,
                                                               const LoadedVersion& after) {

@@ -107,6 +107,10 @@ const std::vector<Option>& options() {
        1, 1e9, "edits one connection may send at once"},
       {"live.max_subscribers", "--live-max-subscribers", "TERRAIN_LIVE_MAX_SUBSCRIBERS",
        &Config::live_max_subscribers, 1, 1e9, "live connections per scene"},
+      {"live.redis_url", "--live-redis-url", "TERRAIN_LIVE_REDIS_URL", &Config::live_redis_url, 0,
+       0, "Redis whose pub/sub carries version events between replicas (empty = one replica)"},
+      {"live.sweep_ms", "--live-sweep-ms", "TERRAIN_LIVE_SWEEP_MS", &Config::live_sweep_ms, 10,
+       kIntMax, "with live.redis_url: how often followed scenes' heads are read from the store"},
       {"log.level", "--log-level", "TERRAIN_LOG_LEVEL", &Config::log_level, 0, 0,
        "error, warn, info or debug"},
   };
@@ -372,6 +376,11 @@ Result<Startup> load_config(std::span<const std::string_view> args,
                                  !RedisCache::parse_url(startup.config.redis_url, redis)) {
     return Error{"redis url '" + startup.config.redis_url + "' is not redis://host[:port]",
                  "/cache.redis_url"};
+  }
+  if (RedisCache::Options redis; !startup.config.live_redis_url.empty() &&
+                                 !RedisCache::parse_url(startup.config.live_redis_url, redis)) {
+    return Error{"redis url '" + startup.config.live_redis_url + "' is not redis://host[:port]",
+                 "/live.redis_url"};
   }
   return startup;
 }

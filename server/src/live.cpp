@@ -18,7 +18,9 @@ void LiveHub::Channel::leave(const LiveSubscriber* subscriber) {
   });
 }
 
-void LiveHub::Channel::publish(std::int64_t version, std::shared_ptr<const std::string> event) {
+bool LiveHub::Channel::publish(std::int64_t version, std::shared_ptr<const std::string> event) {
+  if (version <= last_) return false;
+  last_ = version;
   for (const auto& weak : subscribers_) {
     if (auto subscriber = weak.lock()) subscriber->deliver(event);
   }
@@ -28,6 +30,7 @@ void LiveHub::Channel::publish(std::int64_t version, std::shared_ptr<const std::
     recent_bytes_ -= recent_.front().second->size();
     recent_.pop_front();
   }
+  return true;
 }
 
 std::shared_ptr<const std::string> LiveHub::Channel::recent(std::int64_t version) const {
@@ -42,6 +45,20 @@ std::shared_ptr<LiveHub::Channel> LiveHub::channel(const std::string& scene) {
   auto& slot = channels_[scene];
   if (!slot) slot = std::make_shared<Channel>();
   return slot;
+}
+
+std::vector<std::string> LiveHub::followed_scenes() {
+  std::vector<std::pair<std::string, std::shared_ptr<Channel>>> all;
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& [id, channel] : channels_) all.emplace_back(id, channel);
+  }
+  std::vector<std::string> out;
+  for (const auto& [id, channel] : all) {
+    auto held = channel->lock();
+    if (channel->size() > 0) out.push_back(id);
+  }
+  return out;
 }
 
 std::size_t LiveHub::subscribers() {

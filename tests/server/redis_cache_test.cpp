@@ -5,7 +5,7 @@
 
 #include <thread>
 
-#include "http_harness.hpp"
+#include "redis_harness.hpp"
 #include "server/redis_cache.hpp"
 
 namespace {
@@ -13,69 +13,6 @@ namespace {
 using namespace http_test;
 using server::CachedProduct;
 using server::RedisCache;
-
-/// A free loopback TCP port (bound once, then released for the child to take).
-int free_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address);
-  socklen_t length = sizeof address;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
-  ::close(fd);
-  return ntohs(address.sin_port);
-}
-
-/// redis-server on 127.0.0.1:port without persistence, for as long as the object lives.
-class RedisProcess {
- public:
-  explicit RedisProcess(int port) : port_(port) { start(); }
-  ~RedisProcess() { stop(); }
-  RedisProcess(const RedisProcess&) = delete;
-  RedisProcess& operator=(const RedisProcess&) = delete;
-
-  void start() {
-    std::vector<std::string> args = {
-        "redis-server", "--port", std::to_string(port_), "--bind", "127.0.0.1", "--save", "",
-        "--appendonly", "no",     "--loglevel",          "warning"};
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const pid_t parent = ::getpid();
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-      if (::getppid() != parent) ::_exit(1);
-      ::execvp("redis-server", argv.data());
-      ::_exit(127);
-    }
-    // Ready when it accepts connections.
-    const auto deadline = Clock::now() + Millis(10'000);
-    while (Clock::now() < deadline) {
-      try {
-        Connection probe(port_);
-        return;
-      } catch (const std::exception&) {
-        std::this_thread::sleep_for(Millis(20));
-      }
-    }
-    throw std::runtime_error("redis-server did not start (is it installed?)");
-  }
-
-  void stop() {
-    if (pid_ <= 0) return;
-    ::kill(pid_, SIGKILL);
-    ::waitpid(pid_, nullptr, 0);
-    pid_ = -1;
-  }
-
-  std::string url() const { return "redis://127.0.0.1:" + std::to_string(port_); }
-
- private:
-  int port_;
-  pid_t pid_ = -1;
-};
 
 TEST(RedisRecord, RoundTripsEveryField) {
   CachedProduct product;

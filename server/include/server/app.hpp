@@ -8,6 +8,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <unordered_map>
 
 #include <nlohmann/json.hpp>
@@ -18,6 +19,7 @@
 #include "server/disk_cache.hpp"
 #include "server/http.hpp"
 #include "server/live.hpp"
+#include "server/live_bus.hpp"
 #include "server/metrics.hpp"
 #include "server/redis_cache.hpp"
 #include "server/static_files.hpp"
@@ -134,6 +136,15 @@ class App {
                                                             terrain::TileFormat format,
                                                             const terrain::ProductOptions& options);
   void live_subscribe(LiveConnection& connection, const nlohmann::json& message);
+  /// Publishes version `version` of a scene on its channel (lock held), first the versions the
+  /// channel has not published yet, read from the store (another replica made them). `event`
+  /// may be null: it is then built from the store.
+  void publish_version(const std::string& scene, LiveHub::Channel& channel, std::int64_t version,
+                       std::shared_ptr<const std::string> event);
+  /// A version event another replica published (the bus's thread).
+  void on_remote_event(const std::string& scene, const std::string& event);
+  /// Publishes what other replicas stored for the followed scenes (the sweep thread).
+  void sweep_heads();
   void live_edit(LiveConnection& connection, const nlohmann::json& message);
 
   Response list_planets(const Request& request);
@@ -184,6 +195,10 @@ class App {
   mutable std::mutex planets_mutex_;
   std::unordered_map<std::string, LoadedPlanet> planets_;  // by id (bounded; ids never go stale)
   std::string default_planet_id_;
+
+  // Last, so that they stop first: they call into the members above.
+  std::unique_ptr<LiveBus> bus_;  ///< null unless live.redis_url is set
+  std::jthread sweeper_;          ///< reads followed scenes' heads (with a bus)
 };
 
 }  // namespace server

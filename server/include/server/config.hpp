@@ -61,6 +61,8 @@ struct Config {
   double live_edits_per_second = 10.0;  ///< per connection, token bucket
   int live_edit_burst = 20;
   int live_max_subscribers = 256;  ///< per scene
+  std::string live_redis_url;  ///< replicas hear each other's versions here; empty = one replica
+  int live_sweep_ms = 2000;    ///< with live_redis_url: how often followed scenes' heads are read
   // logging
   std::string log_level = "info";  ///< error, warn, info, debug
 

@@ -3,6 +3,7 @@
 // WebSocket sessions (live_socket.cpp) implement LiveSubscriber.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <deque>
 #include <memory>
@@ -36,8 +37,14 @@ class LiveHub {
     /// Adds a subscriber unless `max` already follow the scene.
     bool join(std::shared_ptr<LiveSubscriber> subscriber, int max);
     void leave(const LiveSubscriber* subscriber);
-    /// Delivers a version event to every subscriber and remembers it for catch-up.
-    void publish(std::int64_t version, std::shared_ptr<const std::string> event);
+    /// Delivers a version event to every subscriber and remembers it for catch-up. A version at
+    /// or below the last one published is a repeat (another replica's echo, say): ignored,
+    /// false. The caller publishes missing versions first (App::publish_version).
+    bool publish(std::int64_t version, std::shared_ptr<const std::string> event);
+    /// The last version published, or 0 when none was (subscribers joining move it to the head
+    /// they were told of).
+    std::int64_t last() const { return last_; }
+    void advance_to(std::int64_t version) { last_ = std::max(last_, version); }
     /// The remembered event of a version, or null.
     std::shared_ptr<const std::string> recent(std::int64_t version) const;
     std::size_t size() const { return subscribers_.size(); }
@@ -47,6 +54,7 @@ class LiveHub {
     std::vector<std::weak_ptr<LiveSubscriber>> subscribers_;
     std::deque<std::pair<std::int64_t, std::shared_ptr<const std::string>>> recent_;
     std::size_t recent_bytes_ = 0;
+    std::int64_t last_ = 0;
   };
 
   /// Versions whose events are kept for catch-up without rereading the store: the latest 256,
@@ -58,6 +66,8 @@ class LiveHub {
   std::shared_ptr<Channel> channel(const std::string& scene);
   /// Subscribers of every scene together (for /metrics).
   std::size_t subscribers();
+  /// The scenes that have subscribers now.
+  std::vector<std::string> followed_scenes();
 
  private:
   std::mutex mutex_;
