@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages the project builds and tests with. Idempotent: it asks apt only for
 # packages that are missing, so a second run costs a dpkg query. --tests adds what only the test
-# suite needs (the browser the viewer's tests drive).
+# suite needs (the browser the viewer's tests drive, the PostgreSQL server the store tests start a
+# throwaway cluster of; the build itself needs only libpq-dev).
 set -euo pipefail
 
 packages=(
@@ -9,11 +10,11 @@ packages=(
   nlohmann-json3-dev libssl-dev libopenimageio-dev openimageio-tools
   libgtest-dev libgmock-dev libbenchmark-dev
   libdraco-dev libgeographiclib-dev zlib1g-dev libtiff-dev
-  libboost1.81-dev libtomlplusplus-dev libsqlite3-dev
+  libboost1.81-dev libtomlplusplus-dev libsqlite3-dev libpq-dev
   gdal-bin nodejs clang libclang-rt-14-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
 )
-[ "${1:-}" = "--tests" ] && packages+=(chromium)
+[ "${1:-}" = "--tests" ] && packages+=(chromium postgresql)
 
 missing=()
 for p in "${packages[@]}"; do

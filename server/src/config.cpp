@@ -17,7 +17,7 @@ namespace {
 
 using Member =
     std::variant<int Config::*, std::int64_t Config::*, double Config::*, std::string Config::*,
-                 std::vector<std::string> Config::*, Backend Config::*>;
+                 std::vector<std::string> Config::*, Backend Config::*, StoreBackend Config::*>;
 
 struct Option {
   std::string_view key;   ///< "section.name" in the TOML file
@@ -56,8 +56,15 @@ const std::vector<Option>& options() {
        0, "directory of the on-disk tile cache (empty = none)"},
       {"cache.disk_bytes", "--disk-cache-bytes", "TERRAIN_DISK_CACHE_BYTES",
        &Config::disk_cache_bytes, 0, kBig, "on-disk tile cache budget"},
+      {"store.backend", "--store-backend", "TERRAIN_STORE_BACKEND", &Config::store_backend, 0, 0,
+       "where scenes are stored: sqlite (in store.data_dir) or postgres (at store.postgres_url)"},
       {"store.data_dir", "--data-dir", "TERRAIN_DATA_DIR", &Config::data_dir, 0, 0,
        "directory of the SQLite store (terrain.sqlite3)"},
+      {"store.postgres_url", "--postgres-url", "TERRAIN_POSTGRES_URL", &Config::postgres_url, 0, 0,
+       "libpq connection string or URI of the PostgreSQL store "
+       "(postgresql://user@host:5432/terrain)"},
+      {"store.postgres_pool_size", "--postgres-pool-size", "TERRAIN_POSTGRES_POOL_SIZE",
+       &Config::postgres_pool_size, 1, 1000, "connections to PostgreSQL one server keeps at most"},
       {"store.scenes_dir", "--scenes-dir", "TERRAIN_SCENES_DIR", &Config::scenes_dir, 0, 0,
        "built-in example scenes loaded into an empty store"},
       {"store.planets_dir", "--planets-dir", "TERRAIN_PLANETS_DIR", &Config::planets_dir, 0, 0,
@@ -196,6 +203,15 @@ terrain::Status set_from_text(Config& config, const Option& o, std::string_view 
       }
       return option_error(o, where, "'" + std::string(text) + "' is not auto, gpu or cpu");
     }
+    terrain::Status operator()(StoreBackend Config::*m) const {
+      for (StoreBackend b : {StoreBackend::sqlite, StoreBackend::postgres}) {
+        if (store_backend_name(b) == text) {
+          config.*m = b;
+          return terrain::Ok{};
+        }
+      }
+      return option_error(o, where, "'" + std::string(text) + "' is not sqlite or postgres");
+    }
   };
   return std::visit(Visitor{config, o, text, where}, o.member);
 }
@@ -213,6 +229,8 @@ std::string value_text(const Config& config, const Option& o) {
           return joined.empty() ? "\"\"" : joined;
         } else if constexpr (std::is_same_v<V, Backend>) {
           return std::string(backend_name(v));
+        } else if constexpr (std::is_same_v<V, StoreBackend>) {
+          return std::string(store_backend_name(v));
         } else {
           std::ostringstream out;
           out << v;
@@ -287,6 +305,16 @@ std::string_view backend_name(Backend backend) {
   return "auto";
 }
 
+std::string_view store_backend_name(StoreBackend backend) {
+  switch (backend) {
+    case StoreBackend::sqlite:
+      return "sqlite";
+    case StoreBackend::postgres:
+      return "postgres";
+  }
+  return "sqlite";
+}
+
 Result<Startup> load_config(std::span<const std::string_view> args,
                             const std::map<std::string, std::string>& environment,
                             const std::string& default_config_file) {
@@ -358,6 +386,13 @@ Result<Startup> load_config(std::span<const std::string_view> args,
   const std::string& level = startup.config.log_level;
   if (level != "error" && level != "warn" && level != "info" && level != "debug") {
     return Error{"log level '" + level + "' is not error, warn, info or debug", "/log.level"};
+  }
+  // An empty string would make libpq fall back on PG* variables and a local socket: a server
+  // told to use PostgreSQL must be told which.
+  if (startup.config.store_backend == StoreBackend::postgres &&
+      startup.config.postgres_url.empty()) {
+    return Error{"store.backend is postgres but no store.postgres_url is set",
+                 "/store.postgres_url"};
   }
   return startup;
 }
