@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs the Debian packages the project builds and tests with. Idempotent: it asks apt only for
 # packages that are missing, so a second run costs a dpkg query. --tests adds what only the test
-# suite needs (the browser the viewer's tests drive, the servers the cluster tests start).
+# suite needs (the browser the viewer's tests drive, and the servers the store, cache and cluster
+# tests start throwaway instances of: PostgreSQL, Redis, nginx; the build needs only their
+# client libraries).
 set -euo pipefail
 
 packages=(
@@ -9,12 +11,11 @@ packages=(
   nlohmann-json3-dev libssl-dev libopenimageio-dev openimageio-tools
   libgtest-dev libgmock-dev libbenchmark-dev
   libdraco-dev libgeographiclib-dev zlib1g-dev libtiff-dev
-  libboost1.81-dev libtomlplusplus-dev libsqlite3-dev libhiredis-dev
+  libboost1.81-dev libtomlplusplus-dev libsqlite3-dev libpq-dev libhiredis-dev
   gdal-bin nodejs clang libclang-rt-14-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
 )
-# The tests also run a Redis of their own (shared-cache tests).
-[ "${1:-}" = "--tests" ] && packages+=(chromium redis-server)
+[ "${1:-}" = "--tests" ] && packages+=(chromium postgresql redis-server nginx-light wrk)
 
 missing=()
 for p in "${packages[@]}"; do

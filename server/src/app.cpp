@@ -1436,7 +1436,10 @@ terrain::Status App::seed_examples() {
     first.canonical_json = (*scene)->canonical_text();
     first.author = "built-in";
     StoreResult<SceneVersion> created = store_->create_scene(file.stem().string(), first);
-    if (!created) return Error{created.error().message, ""};
+    // A conflict means another replica sharing the store (PostgreSQL) seeded it meanwhile.
+    if (!created && created.error().kind != StoreError::Kind::conflict) {
+      return Error{created.error().message, ""};
+    }
   }
   return seed_planets();
 }

@@ -19,7 +19,7 @@ namespace {
 
 using Member =
     std::variant<int Config::*, std::int64_t Config::*, double Config::*, std::string Config::*,
-                 std::vector<std::string> Config::*, Backend Config::*>;
+                 std::vector<std::string> Config::*, Backend Config::*, StoreBackend Config::*>;
 
 struct Option {
   std::string_view key;   ///< "section.name" in the TOML file
@@ -65,8 +65,15 @@ const std::vector<Option>& options() {
       {"cache.redis_timeout_ms", "--redis-timeout-ms", "TERRAIN_REDIS_TIMEOUT_MS",
        &Config::redis_timeout_ms, 1, 60000,
        "connect and command timeout of Redis (a slower Redis is skipped for a while)"},
+      {"store.backend", "--store-backend", "TERRAIN_STORE_BACKEND", &Config::store_backend, 0, 0,
+       "where scenes are stored: sqlite (in store.data_dir) or postgres (at store.postgres_url)"},
       {"store.data_dir", "--data-dir", "TERRAIN_DATA_DIR", &Config::data_dir, 0, 0,
        "directory of the SQLite store (terrain.sqlite3)"},
+      {"store.postgres_url", "--postgres-url", "TERRAIN_POSTGRES_URL", &Config::postgres_url, 0, 0,
+       "libpq connection string or URI of the PostgreSQL store "
+       "(postgresql://user@host:5432/terrain)"},
+      {"store.postgres_pool_size", "--postgres-pool-size", "TERRAIN_POSTGRES_POOL_SIZE",
+       &Config::postgres_pool_size, 1, 1000, "connections to PostgreSQL one server keeps at most"},
       {"store.scenes_dir", "--scenes-dir", "TERRAIN_SCENES_DIR", &Config::scenes_dir, 0, 0,
        "built-in example scenes loaded into an empty store"},
       {"store.planets_dir", "--planets-dir", "TERRAIN_PLANETS_DIR", &Config::planets_dir, 0, 0,
@@ -209,6 +216,15 @@ terrain::Status set_from_text(Config& config, const Option& o, std::string_view 
       }
       return option_error(o, where, "'" + std::string(text) + "' is not auto, gpu or cpu");
     }
+    terrain::Status operator()(StoreBackend Config::*m) const {
+      for (StoreBackend b : {StoreBackend::sqlite, StoreBackend::postgres}) {
+        if (store_backend_name(b) == text) {
+          config.*m = b;
+          return terrain::Ok{};
+        }
+      }
+      return option_error(o, where, "'" + std::string(text) + "' is not sqlite or postgres");
+    }
   };
   return std::visit(Visitor{config, o, text, where}, o.member);
 }
@@ -226,6 +242,8 @@ std::string value_text(const Config& config, const Option& o) {
           return joined.empty() ? "\"\"" : joined;
         } else if constexpr (std::is_same_v<V, Backend>) {
           return std::string(backend_name(v));
+        } else if constexpr (std::is_same_v<V, StoreBackend>) {
+          return std::string(store_backend_name(v));
         } else {
           std::ostringstream out;
           out << v;
@@ -298,6 +316,16 @@ std::string_view backend_name(Backend backend) {
       return "cpu";
   }
   return "auto";
+}
+
+std::string_view store_backend_name(StoreBackend backend) {
+  switch (backend) {
+    case StoreBackend::sqlite:
+      return "sqlite";
+    case StoreBackend::postgres:
+      return "postgres";
+  }
+  return "sqlite";
 }
 
 Result<Startup> load_config(std::span<const std::string_view> args,
@@ -381,6 +409,13 @@ Result<Startup> load_config(std::span<const std::string_view> args,
                                  !RedisCache::parse_url(startup.config.live_redis_url, redis)) {
     return Error{"redis url '" + startup.config.live_redis_url + "' is not redis://host[:port]",
                  "/live.redis_url"};
+  }
+  // An empty string would make libpq fall back on PG* variables and a local socket: a server
+  // told to use PostgreSQL must be told which.
+  if (startup.config.store_backend == StoreBackend::postgres &&
+      startup.config.postgres_url.empty()) {
+    return Error{"store.backend is postgres but no store.postgres_url is set",
+                 "/store.postgres_url"};
   }
   return startup;
 }

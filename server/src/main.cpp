@@ -9,6 +9,7 @@
 #include "server/app.hpp"
 #include "server/log.hpp"
 #include "server/net.hpp"
+#include "server/store.hpp"
 
 int main(int argc, char** argv) {
   std::vector<std::string_view> args(argv + 1, argv + argc);
@@ -30,7 +31,7 @@ int main(int argc, char** argv) {
     ::setrlimit(RLIMIT_NOFILE, &files);
   }
   server::set_log_level(config.log_level);
-  auto store = server::open_sqlite_store(config.data_dir);
+  auto store = server::open_store(config);
   if (!store) {
     std::cerr << "terrain-server: store: " << store.error().message << "\n";
     return 1;
@@ -56,8 +57,12 @@ int main(int argc, char** argv) {
     http.stop();
   });
   std::thread signal_thread([&] { signals_io.run(); });
-  std::cout << "terrain-server listening on http://" << config.address << ":" << *port << " (data "
-            << config.data_dir << ")" << std::endl;
+  // The PostgreSQL URL is not printed: it may carry a password.
+  const std::string where = config.store_backend == server::StoreBackend::sqlite
+                                ? "data " + config.data_dir
+                                : "store postgres";
+  std::cout << "terrain-server listening on http://" << config.address << ":" << *port << " ("
+            << where << ")" << std::endl;
   server::log(server::LogLevel::info, "backend",
               {{"choice", server::backend_name(config.backend)}, {"using", app.backend_reason()}});
   http.run();

@@ -89,7 +89,10 @@ class Statement {
     return *this;
   }
   Statement& bind_blob(int i, const std::vector<std::uint8_t>& bytes) {
-    sqlite3_bind_blob(stmt_, i, bytes.data(), static_cast<int>(bytes.size()), SQLITE_TRANSIENT);
+    // A null pointer binds NULL, not an empty blob: an empty vector's data() may be one.
+    static constexpr std::uint8_t kNone = 0;
+    sqlite3_bind_blob(stmt_, i, bytes.empty() ? &kNone : bytes.data(),
+                      static_cast<int>(bytes.size()), SQLITE_TRANSIENT);
     return *this;
   }
   int step() { return sqlite3_step(stmt_); }

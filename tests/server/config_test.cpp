@@ -68,6 +68,23 @@ TEST(Config, ReadsListsSuffixesAndBackends) {
   EXPECT_EQ(c.cors_origins, (std::vector<std::string>{"*", "https://c.example"}));
 }
 
+TEST(Config, ReadsTheStoreBackend) {
+  EXPECT_EQ(load_or_die({}).store_backend, StoreBackend::sqlite);
+  TempFile file(
+      "[store]\nbackend = \"postgres\"\npostgres_url = \"postgresql://t@db/terrain\"\n"
+      "postgres_pool_size = 3\n");
+  Config c = load_or_die({"--config", file.path.string()});
+  EXPECT_EQ(c.store_backend, StoreBackend::postgres);
+  EXPECT_EQ(c.postgres_url, "postgresql://t@db/terrain");
+  EXPECT_EQ(c.postgres_pool_size, 3);
+  c = load_or_die({"--config", file.path.string(), "--postgres-url", "host=x dbname=y"},
+                  {{"TERRAIN_POSTGRES_POOL_SIZE", "5"}});
+  EXPECT_EQ(c.postgres_url, "host=x dbname=y");
+  EXPECT_EQ(c.postgres_pool_size, 5);
+  c = load_or_die({"--config", file.path.string()}, {{"TERRAIN_STORE_BACKEND", "sqlite"}});
+  EXPECT_EQ(c.store_backend, StoreBackend::sqlite);
+}
+
 TEST(Config, DefaultFileIsReadWhenPresentAndSkippedWhenNot) {
   TempFile file("[server]\nport = 7000\n");
   EXPECT_EQ(load_or_die({}, {}, file.path.string()).port, 7000);
@@ -80,7 +97,8 @@ TEST(Config, HelpListsEveryOption) {
   EXPECT_TRUE(s->show_help);
   const std::string help = help_text();
   for (const char* needle : {"--port", "TERRAIN_PORT", "--data-dir", "--write-token", "--config",
-                             "--backend", "--cors-origins", "--cache-bytes", "default: 8080"}) {
+                             "--backend", "--cors-origins", "--cache-bytes", "default: 8080",
+                             "--store-backend", "TERRAIN_POSTGRES_URL", "default: sqlite"}) {
     EXPECT_NE(help.find(needle), std::string::npos) << needle;
   }
 }
@@ -113,6 +131,9 @@ TEST(ConfigErrors, NameTheOptionAndTheSource) {
       {{}, {}, "[server\nport = 1\n", ""},
       {{"--config", "/nonexistent/x.toml"}, {}, "", "/config"},
       {{"--log-level", "chatty"}, {}, "", "/log.level"},
+      {{"--store-backend", "mysql"}, {}, "", "/store.backend"},
+      {{"--store-backend", "postgres"}, {}, "", "/store.postgres_url"},
+      {{}, {{"TERRAIN_POSTGRES_POOL_SIZE", "0"}}, "", "/store.postgres_pool_size"},
   };
   for (const Case& c : cases) {
     std::vector<std::string_view> args = c.args;

@@ -1,10 +1,14 @@
-// The SQLite store: versions are immutable and ordered, If-Match conflicts write nothing, data
-// survives reopening, blobs are content-addressed.
+// Both stores, one contract: versions are immutable and ordered, If-Match conflicts write
+// nothing, data survives reopening, blobs are content-addressed. Every test runs against SQLite
+// and against PostgreSQL (a throwaway cluster, postgres_cluster.hpp; a database per test).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <thread>
 
+#include "postgres_cluster.hpp"
+#include "server/config.hpp"
 #include "server/store.hpp"
 
 namespace server {
@@ -12,21 +16,28 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class StoreTest : public ::testing::Test {
+class StoreTest : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("terrain-store-" + std::to_string(::getpid()) + "-" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
+    if (GetParam() == "postgres") {
+      config_.store_backend = StoreBackend::postgres;
+      config_.postgres_url = pg_test::shared_cluster().create_database();
+    } else {
+      std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+      std::replace(name.begin(), name.end(), '/', '-');
+      dir_ =
+          fs::temp_directory_path() / ("terrain-store-" + std::to_string(::getpid()) + "-" + name);
+      fs::remove_all(dir_);
+      config_.data_dir = dir_.string();
+    }
     store_ = open_or_die();
   }
   void TearDown() override {
     store_.reset();
-    fs::remove_all(dir_);
+    if (!dir_.empty()) fs::remove_all(dir_);
   }
   std::unique_ptr<Store> open_or_die() {
-    StoreResult<std::unique_ptr<Store>> s = open_sqlite_store(dir_.string());
+    StoreResult<std::unique_ptr<Store>> s = open_store(config_);
     if (!s) throw std::runtime_error(s.error().message);
     return std::move(s).value();
   }
@@ -39,16 +50,22 @@ class StoreTest : public ::testing::Test {
     return v;
   }
 
+  Config config_;
   fs::path dir_;
   std::unique_ptr<Store> store_;
 };
 
-TEST_F(StoreTest, NewStoreIsEmpty) {
+INSTANTIATE_TEST_SUITE_P(Backends, StoreTest, ::testing::Values("sqlite", "postgres"),
+                         [](const ::testing::TestParamInfo<std::string>& param) {
+                           return param.param;
+                         });
+
+TEST_P(StoreTest, NewStoreIsEmpty) {
   EXPECT_TRUE(*store_->empty());
   EXPECT_TRUE(store_->list_scenes()->empty());
 }
 
-TEST_F(StoreTest, VersionsCountUpAndStayImmutable) {
+TEST_P(StoreTest, VersionsCountUpAndStayImmutable) {
   ASSERT_TRUE(store_->create_scene("a", body("{\"v\":1}")).ok());
   StoreResult<SceneVersion> v2 = store_->add_version("a", body("{\"v\":2}"), std::nullopt);
   ASSERT_TRUE(v2.ok());
@@ -66,7 +83,7 @@ TEST_F(StoreTest, VersionsCountUpAndStayImmutable) {
   EXPECT_EQ((*list)[0].head_hash, v2->hash);
 }
 
-TEST_F(StoreTest, StaleIfMatchIsAConflictAndWritesNothing) {
+TEST_P(StoreTest, StaleIfMatchIsAConflictAndWritesNothing) {
   ASSERT_TRUE(store_->create_scene("a", body("{}")).ok());
   ASSERT_TRUE(store_->add_version("a", body("{\"x\":1}"), 1).ok());
   StoreResult<SceneVersion> stale = store_->add_version("a", body("{\"x\":2}"), 1);
@@ -76,7 +93,7 @@ TEST_F(StoreTest, StaleIfMatchIsAConflictAndWritesNothing) {
   EXPECT_EQ(store_->versions("a")->size(), 2u);
 }
 
-TEST_F(StoreTest, ConcurrentWritersGetDistinctVersions) {
+TEST_P(StoreTest, ConcurrentWritersGetDistinctVersions) {
   ASSERT_TRUE(store_->create_scene("a", body("{}")).ok());
   std::vector<std::thread> writers;
   for (int t = 0; t < 4; ++t) {
@@ -95,7 +112,7 @@ TEST_F(StoreTest, ConcurrentWritersGetDistinctVersions) {
   for (std::size_t i = 0; i < all->size(); ++i) EXPECT_EQ((*all)[i].version, std::int64_t(i) + 1);
 }
 
-TEST_F(StoreTest, SurvivesReopening) {
+TEST_P(StoreTest, SurvivesReopening) {
   ASSERT_TRUE(store_->create_scene("a", body("{\"k\":1}")).ok());
   const std::vector<std::uint8_t> bytes{1, 2, 3};
   const Blob blob{content_hash(bytes.data(), bytes.size()), "image/png", bytes};
@@ -106,7 +123,7 @@ TEST_F(StoreTest, SurvivesReopening) {
   EXPECT_FALSE(*store_->empty());
 }
 
-TEST_F(StoreTest, BlobsAreIdempotent) {
+TEST_P(StoreTest, BlobsAreIdempotent) {
   const std::vector<std::uint8_t> bytes{9, 9};
   const Blob blob{content_hash(bytes.data(), bytes.size()), "image/png", bytes};
   ASSERT_TRUE(store_->put_blob(blob).ok());
@@ -115,7 +132,7 @@ TEST_F(StoreTest, BlobsAreIdempotent) {
 }
 
 // Missing things and conflicts, together.
-TEST_F(StoreTest, MissingAndDuplicateAreClassified) {
+TEST_P(StoreTest, MissingAndDuplicateAreClassified) {
   EXPECT_EQ(store_->head("nope").error().kind, StoreError::Kind::not_found);
   EXPECT_EQ(store_->version("nope", 1).error().kind, StoreError::Kind::not_found);
   EXPECT_EQ(store_->versions("nope").error().kind, StoreError::Kind::not_found);
@@ -127,7 +144,7 @@ TEST_F(StoreTest, MissingAndDuplicateAreClassified) {
   EXPECT_EQ(store_->version("a", 2).error().kind, StoreError::Kind::not_found);
 }
 
-TEST_F(StoreTest, PlanetsAreStoredOnceByIdAndSurviveReopening) {
+TEST_P(StoreTest, PlanetsAreStoredOnceByIdAndSurviveReopening) {
   EXPECT_TRUE(store_->list_planets()->empty());
   const StoredPlanet a{std::string(64, 'a'), "{\"seed\":1}", 0};
   const StoredPlanet b{std::string(64, 'b'), "{\"seed\":2}", 0};
@@ -152,7 +169,7 @@ TEST_F(StoreTest, PlanetsAreStoredOnceByIdAndSurviveReopening) {
 
 // An id names one body (it is that body's hash): another body under it is refused, and so is a
 // planet without an id or body; neither writes anything.
-TEST_F(StoreTest, RefusedPlanetWritesStoreNothing) {
+TEST_P(StoreTest, RefusedPlanetWritesStoreNothing) {
   const StoredPlanet a{std::string(64, 'a'), "{\"seed\":1}", 0};
   ASSERT_TRUE(store_->put_planet(a).ok());
   StoreResult<PlanetPut> other = store_->put_planet({a.id, "{\"seed\":2}", 0});
@@ -163,6 +180,52 @@ TEST_F(StoreTest, RefusedPlanetWritesStoreNothing) {
   EXPECT_FALSE(store_->put_planet({std::string(64, 'c'), "", 0}).ok());
   EXPECT_EQ(store_->list_planets()->size(), 1u);
   EXPECT_EQ(store_->get_planet(std::string(64, 'c')).error().kind, StoreError::Kind::not_found);
+}
+
+// What live catch-up reads: whole versions above a number, with the ops of edits, in order.
+TEST_P(StoreTest, VersionsAfterCarryBodiesAndOps) {
+  SceneVersion first = body("{\"v\":1}");
+  first.name = "Ma\u00f1ana \u26f0";  // UTF-8 survives both stores
+  ASSERT_TRUE(store_->create_scene("a", first).ok());
+  SceneVersion edit = body("{\"v\":2}");
+  edit.ops_json = "[{\"op\":\"replace\",\"path\":\"/v\",\"value\":2}]";
+  ASSERT_TRUE(store_->add_version("a", edit, 1).ok());
+  ASSERT_TRUE(store_->add_version("a", body("{\"v\":3}"), 2).ok());
+  const auto after1 = store_->versions_after("a", 1, 10);
+  ASSERT_TRUE(after1.ok()) << after1.error().message;
+  ASSERT_EQ(after1->size(), 2u);
+  EXPECT_EQ((*after1)[0].version, 2);
+  EXPECT_EQ((*after1)[0].canonical_json, "{\"v\":2}");
+  EXPECT_EQ((*after1)[0].ops_json, edit.ops_json);
+  EXPECT_EQ((*after1)[1].ops_json, "");  // a whole body
+  EXPECT_EQ(store_->versions_after("a", 0, 1)->front().name, first.name);
+  EXPECT_EQ(store_->versions_after("a", 0, -1)->size(), 3u);  // a negative limit is none
+  EXPECT_TRUE(store_->versions_after("a", 3, 10)->empty());
+  EXPECT_TRUE(store_->versions_after("nope", 0, 10)->empty());
+  EXPECT_EQ(store_->version("a", 2)->ops_json, edit.ops_json);
+}
+
+// Ids list bytewise, whatever a database's collation would say about punctuation.
+TEST_P(StoreTest, ScenesListInBytewiseIdOrder) {
+  for (const char* id : {"a_1", "a1", "b", "a-2"}) {
+    ASSERT_TRUE(store_->create_scene(id, body("{}")).ok());
+  }
+  const auto list = store_->list_scenes();
+  ASSERT_EQ(list->size(), 4u);
+  EXPECT_EQ((*list)[0].id, "a-2");
+  EXPECT_EQ((*list)[1].id, "a1");
+  EXPECT_EQ((*list)[2].id, "a_1");
+  EXPECT_EQ((*list)[3].id, "b");
+}
+
+TEST_P(StoreTest, BlobBytesRoundTripExactly) {
+  const std::vector<std::uint8_t> bytes{0, 255, 0, 92, 120, 0};  // NULs, "\x"
+  const Blob blob{content_hash(bytes.data(), bytes.size()), "image/png", bytes};
+  ASSERT_TRUE(store_->put_blob(blob).ok());
+  EXPECT_EQ(store_->blob(blob.hash)->bytes, bytes);
+  const Blob none{content_hash(nullptr, 0), "image/png", {}};
+  ASSERT_TRUE(store_->put_blob(none).ok());
+  EXPECT_TRUE(store_->blob(none.hash)->bytes.empty());
 }
 
 }  // namespace

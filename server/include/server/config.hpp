@@ -20,6 +20,9 @@ using terrain::Result;
 /// Which evaluator generates tiles (wired by the GPU backend).
 enum class Backend { automatic, gpu, cpu };
 
+/// Where scenes, versions, images and planets are stored (docs/server.md, "Storage backends").
+enum class StoreBackend { sqlite, postgres };
+
 struct Config {
   // network
   std::string address = "127.0.0.1";
@@ -39,7 +42,10 @@ struct Config {
   int redis_ttl_seconds = 7 * 24 * 3600;  ///< entries expire after this long
   int redis_timeout_ms = 100;             ///< per command; a slower Redis counts as down
   // storage
-  std::string data_dir = "data";               ///< holds terrain.sqlite3
+  StoreBackend store_backend = StoreBackend::sqlite;
+  std::string data_dir = "data";  ///< holds terrain.sqlite3
+  std::string postgres_url;       ///< libpq connection string or URI (store_backend postgres)
+  int postgres_pool_size = 8;     ///< connections to PostgreSQL one server keeps at most
   std::string scenes_dir = "config/scenes";    ///< built-in scenes loaded on first start
   std::string planets_dir = "config/planets";  ///< built-in planets; default.json is "default"
   std::string client_dir = "client_web";       ///< static files served at /
@@ -88,5 +94,7 @@ std::string help_text();
 std::map<std::string, std::string> process_environment();
 
 std::string_view backend_name(Backend backend);
+
+std::string_view store_backend_name(StoreBackend backend);
 
 }  // namespace server

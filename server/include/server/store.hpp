@@ -1,6 +1,7 @@
 // Durable storage of scenes, their immutable versions, uploaded images and planet definitions. The
-// interface is what the HTTP layer needs; SQLite (embedded default) implements it here, PostgreSQL
-// will later.
+// interface is what the HTTP layer needs; SQLite (embedded default, sqlite_store.cpp) and
+// PostgreSQL (shared by replicas, postgres_store.hpp) implement it with the same semantics, and
+// open_store picks one by configuration.
 #pragma once
 
 #include <cstdint>
@@ -12,6 +13,8 @@
 #include "terrain/result.hpp"
 
 namespace server {
+
+struct Config;
 
 /// Why a store operation failed.
 struct StoreError {
@@ -111,6 +114,10 @@ class Store {
 /// Opens (creating when needed) `<data_dir>/terrain.sqlite3` in WAL mode with synchronous=FULL,
 /// migrating its schema to the current version.
 StoreResult<std::unique_ptr<Store>> open_sqlite_store(const std::string& data_dir);
+
+/// Opens the store the configuration names: SQLite in `store.data_dir`, or PostgreSQL at
+/// `store.postgres_url` with up to `store.postgres_pool_size` connections.
+StoreResult<std::unique_ptr<Store>> open_store(const Config& config);
 
 /// "sha256:<hex>" of bytes.
 std::string content_hash(const void* data, std::size_t size);
