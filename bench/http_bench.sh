@@ -3,9 +3,14 @@
 # same bytes as a static file, side by side with the same wrk settings; then uncached tile latency
 # (p50/p99) over distinct addresses. Installs wrk and nginx from Debian when missing.
 # Usage: bench/http_bench.sh [SECONDS per run]   (HTTP_BENCH_ROUNDS=6 rounds by default)
+# Like with like: the server's I/O threads and nginx's worker processes are both
+# HTTP_BENCH_WORKERS (default 2, this VM's vCPUs); nginx keeps its defaults otherwise (sendfile
+# on, tcp_nodelay on, keepalive_requests 1000). HTTP_BENCH_SERVER names another server binary
+# (an older build, say; default build/release/server/terrain-server).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-5}"
+workers="${HTTP_BENCH_WORKERS:-2}"
 for p in wrk nginx-light curl; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
@@ -23,8 +28,9 @@ cleanup() {
 }
 trap cleanup EXIT
 
-build/release/server/terrain-server --config /dev/null --port 0 --data-dir "$work/data" \
-  --log-level warn > "$work/server.out" 2> "$work/server.err" &
+"${HTTP_BENCH_SERVER:-build/release/server/terrain-server}" --config /dev/null --port 0 \
+  --data-dir "$work/data" --io-threads "$workers" --log-level warn \
+  > "$work/server.out" 2> "$work/server.err" &
 server_pid=$!
 for _ in $(seq 100); do grep -q listening "$work/server.out" 2> /dev/null && break; sleep 0.1; done
 port="$(sed -n 's/.*:\([0-9]*\) .*/\1/p' "$work/server.out" | head -1)"
@@ -34,8 +40,13 @@ curl -sf -o "$work/tile.png" "$tile"
 
 mkdir -p "$work/www"
 cp "$work/tile.png" "$work/www/tile.png"
+# mktemp -d makes a 0700 directory, which nginx's workers (user nobody when started as root)
+# cannot enter: they answered 403 (153 bytes), and earlier versions of this script measured that
+# error page instead of the tile. The checks below make sure nginx sends the tile.
+chmod 755 "$work" "$work/www"
+chmod 644 "$work/www/tile.png"
 cat > "$work/nginx.conf" <<NGINX
-worker_processes 2;
+worker_processes $workers;
 pid $work/nginx.pid;
 error_log $work/nginx-error.log;
 events { worker_connections 1024; }
@@ -50,9 +61,24 @@ http {
 NGINX
 nginx -c "$work/nginx.conf"
 sleep 0.5
+if ! curl -sf http://127.0.0.1:18099/tile.png | cmp -s - "$work/tile.png"; then
+  echo "nginx does not serve the tile's bytes: $(curl -s -o /dev/null -w '%{http_code}' \
+    http://127.0.0.1:18099/tile.png)" >&2
+  exit 1
+fi
+# Requests per second of one wrk run; any non-2xx answer (an error page is no tile) fails.
+rate() {
+  local out
+  out="$(wrk -t2 -c32 -d"${seconds}s" "$1")"
+  if grep -q "Non-2xx" <<< "$out"; then
+    echo "$1: $(grep "Non-2xx" <<< "$out")" >&2
+    exit 1
+  fi
+  awk '/Requests\/sec/ {print $2}' <<< "$out"
+}
 
 rounds="${HTTP_BENCH_ROUNDS:-6}"
-echo "## Cached tile ($(stat -c %s "$work/tile.png") bytes), wrk -t2 -c32, $rounds alternating rounds of ${seconds}s"
+echo "## Cached tile ($(stat -c %s "$work/tile.png") bytes), wrk -t2 -c32, $rounds alternating rounds of ${seconds}s, $workers server I/O threads and nginx workers"
 echo
 # Client and servers share this VM's cores and its neighbours' noise: single runs swing by 2x.
 # The servers therefore take turns, round after round, and the ratio is the median of the
@@ -61,8 +87,8 @@ echo "| Round | terrain-server req/s | nginx req/s | ratio |"
 echo "|---|---|---|---|"
 : > "$work/ratios"
 for round in $(seq "$rounds"); do
-  ours="$(wrk -t2 -c32 -d"${seconds}s" "$tile" | awk '/Requests\/sec/ {print $2}')"
-  theirs="$(wrk -t2 -c32 -d"${seconds}s" http://127.0.0.1:18099/tile.png | awk '/Requests\/sec/ {print $2}')"
+  ours="$(rate "$tile")"
+  theirs="$(rate http://127.0.0.1:18099/tile.png)"
   ratio="$(awk -v a="$ours" -v b="$theirs" 'BEGIN {printf "%.2f", a / b}')"
   echo "$ratio" >> "$work/ratios"
   echo "| $round | $ours | $theirs | $ratio |"

@@ -189,10 +189,8 @@ std::string version_etag(const SceneVersion& v) {
   return quote(v.hash);
 }
 
-bool etag_matches(const Request& request, const std::string& etag) {
-  const auto it = request.find(http::field::if_none_match);
-  if (it == request.end()) return false;
-  const std::string_view header(it->value().data(), it->value().size());
+// Whether an If-None-Match value names this entity tag.
+bool none_match_names(std::string_view header, std::string_view etag) {
   if (header == "*") return true;
   // A list of entity tags; weak comparison is what If-None-Match asks for.
   std::size_t at = 0;
@@ -203,6 +201,16 @@ bool etag_matches(const Request& request, const std::string& etag) {
     at = end + 1;
   }
   return false;
+}
+
+std::string_view if_none_match(const Request& request) {
+  const auto it = request.find(http::field::if_none_match);
+  return it == request.end() ? std::string_view()
+                             : std::string_view(it->value().data(), it->value().size());
+}
+
+bool etag_matches(const Request& request, std::string_view etag) {
+  return none_match_names(if_none_match(request), etag);
 }
 
 std::string product_etag(std::string_view body) {
@@ -408,14 +416,30 @@ struct ReplyContext {
   }
 };
 
+// What a product response takes from its request and URL, as views (of a ReplyContext, or of
+// the request itself while it is handled).
+struct ReplyParts {
+  unsigned version = 11;
+  bool keep_alive = false;
+  bool gzip_ok = false;
+  std::string_view if_none_match;
+  std::string_view cache_control;
+  std::optional<terrain::Gray16Encoding> gray16;
+
+  static ReplyParts of(const ReplyContext& c) {
+    return {c.version, c.keep_alive, c.gzip_ok, c.if_none_match, c.cache_control, c.gray16};
+  }
+};
+
 // The response for a product, fresh or cached: strong ETag, 304, gzip as stored or inflated.
-Response product_response(const ReplyContext& c,
+Response product_response(const ReplyParts& c,
                           const std::shared_ptr<const CachedProduct>& product) {
   const CachedProduct& p = *product;
-  const Request shadow = c.shadow();
   // A gzip-stored product sent plain is another representation: another strong ETag.
   const bool inflate = p.content_encoding == "gzip" && !c.gzip_ok;
-  const std::string etag = inflate ? p.etag.substr(0, p.etag.size() - 1) + "-identity\"" : p.etag;
+  const std::string inflated_etag =
+      inflate ? p.etag.substr(0, p.etag.size() - 1) + "-identity\"" : std::string();
+  const std::string_view etag = inflate ? std::string_view(inflated_etag) : p.etag;
   Response r{http::status::ok, c.version};
   r.set(http::field::server, "terrain-server");
   r.keep_alive(c.keep_alive);
@@ -426,7 +450,7 @@ Response product_response(const ReplyContext& c,
     r.set("X-Gray16-Offset", std::to_string(c.gray16->offset));
     r.set("X-Gray16-Scale", std::to_string(c.gray16->scale));
   }
-  if (etag_matches(shadow, etag)) {
+  if (none_match_names(c.if_none_match, etag)) {
     r.result(http::status::not_modified);
     return r;
   }
@@ -444,6 +468,10 @@ Response product_response(const ReplyContext& c,
   if (!p.backend.empty()) r.set("X-Terrain-Backend", p.backend);
   r.prepare_payload();  // HEAD: the session drops the body and keeps this length
   return r;
+}
+Response product_response(const ReplyContext& c,
+                          const std::shared_ptr<const CachedProduct>& product) {
+  return product_response(ReplyParts::of(c), product);
 }
 }  // namespace
 
@@ -594,8 +622,36 @@ void App::add_cors(const Request& request, Response& response) const {
   }
 }
 
+std::optional<Response> App::cached_product(const Request& request) {
+  if (request.method() != http::verb::get && request.method() != http::verb::head) {
+    return std::nullopt;
+  }
+  const ProductRoutes& routes = product_routes_.local();
+  const auto route =
+      routes.find(std::string_view(request.target().data(), request.target().size()));
+  if (route == routes.end()) return std::nullopt;
+  const ProductRoute& known = route->second;
+  auto product = cache_.find_hit(known.cache_key);
+  if (!product) return std::nullopt;
+  return product_response({request.version(), request.keep_alive(), accepts_gzip(request),
+                           if_none_match(request), known.cache_control, known.gray16},
+                          product);
+}
+
+void App::remember_product_route(const Request& request, ProductRoute route) {
+  constexpr std::size_t kRememberedRoutes = 4096;  // per thread; forgotten all at once beyond
+  ProductRoutes& routes = product_routes_.local();
+  if (routes.size() >= kRememberedRoutes) routes.clear();
+  routes.insert_or_assign(std::string(request.target()), std::move(route));
+}
+
 Outcome App::handle(const Request& request) {
   try {
+    // A cached immutable tile asked for again: the same answer as the full route below gives.
+    if (std::optional<Response> known = cached_product(request)) {
+      add_cors(request, *known);
+      return std::move(*known);
+    }
     const std::string_view raw(request.target().data(), request.target().size());
     if (raw.empty() || raw.front() != '/') {
       return problem(request, http::status::bad_request, "Bad request target",
@@ -1215,6 +1271,11 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   if (query->format == terrain::TileFormat::gray16) {
     reply.gray16 = terrain::gray16_encoding_for(loaded.source->elevation_range);
   }
+  // A pinned version's URL names the same bytes and headers forever; quantized-mesh also
+  // depends on Accept.
+  if (pinned && query->format != terrain::TileFormat::quantized_mesh) {
+    remember_product_route(request, {cache_key, cache_control, reply.gray16});
+  }
   auto respond = [reply](const std::shared_ptr<const CachedProduct>& product) {
     return product_response(reply, product);
   };
@@ -1827,6 +1888,11 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
   ReplyContext reply = reply_base;
   if (query->format == terrain::TileFormat::gray16) {
     reply.gray16 = terrain::gray16_encoding_for(world->elevation_range());
+  }
+  // An id's URL names the same bytes and headers forever (the alias may change at a restart);
+  // quantized-mesh also depends on Accept.
+  if (ref == id && query->format != terrain::TileFormat::quantized_mesh) {
+    remember_product_route(request, {cache_key, cache_control, reply.gray16});
   }
   if (auto hit = cache_.find(cache_key)) return product_response(reply, hit);
   if (auto hit = find_shared(cache_key)) {

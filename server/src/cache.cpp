@@ -14,6 +14,15 @@ std::shared_ptr<const CachedProduct> ProductCache::find(const std::string& key) 
   return it->second->product;
 }
 
+std::shared_ptr<const CachedProduct> ProductCache::find_hit(const std::string& key) {
+  std::lock_guard lock(mutex_);
+  auto it = index_.find(key);
+  if (it == index_.end()) return nullptr;
+  ++hits_;
+  order_.splice(order_.begin(), order_, it->second);
+  return it->second->product;
+}
+
 void ProductCache::insert(const std::string& key, std::shared_ptr<const CachedProduct> product) {
   // A sealed file holds a second copy of the body: it counts against the budget too.
   const std::size_t body = product->body.size() * (product->file ? 2 : 1);

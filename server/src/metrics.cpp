@@ -1,5 +1,6 @@
 #include "server/metrics.hpp"
 
+#include <algorithm>
 #include <sstream>
 
 #include "server/cache.hpp"
@@ -15,9 +16,20 @@ void Metrics::Histogram::add(double v) {
 }
 
 void Metrics::request(std::string_view route, int status, double seconds) {
-  std::lock_guard lock(mutex_);
-  ++requests_[{std::string(route), status}];
-  latency_[std::string(route)].add(seconds);
+  RequestShard& shard = request_shards_.local();
+  std::lock_guard lock(shard.mutex);
+  auto count = std::find_if(shard.counts.begin(), shard.counts.end(),
+                            [&](const auto& c) { return c.status == status && c.route == route; });
+  if (count == shard.counts.end()) {
+    count = shard.counts.insert(shard.counts.end(), {std::string(route), status, 0});
+  }
+  ++count->n;
+  auto latency = std::find_if(shard.latency.begin(), shard.latency.end(),
+                              [&](const auto& l) { return l.route == route; });
+  if (latency == shard.latency.end()) {
+    latency = shard.latency.insert(shard.latency.end(), {std::string(route), {}});
+  }
+  latency->histogram.add(seconds);
 }
 
 void Metrics::generation(std::string_view product, double seconds, std::string_view backend) {
@@ -43,18 +55,31 @@ void histogram_lines(std::ostringstream& out, const std::string& name, const std
 }  // namespace
 
 std::string Metrics::prometheus(const ProductCache& cache) const {
+  // The threads' shards added up, in the order of the series' labels.
+  std::map<std::pair<std::string, int>, std::int64_t> requests;
+  std::map<std::string, Histogram> latency;
+  request_shards_.for_each([&](RequestShard& shard) {
+    std::lock_guard lock(shard.mutex);
+    for (const auto& c : shard.counts) requests[{c.route, c.status}] += c.n;
+    for (const auto& l : shard.latency) {
+      Histogram& total = latency[l.route];
+      for (std::size_t i = 0; i < kBuckets.size(); ++i) total.counts[i] += l.histogram.counts[i];
+      total.count += l.histogram.count;
+      total.sum += l.histogram.sum;
+    }
+  });
   std::ostringstream out;
   std::lock_guard lock(mutex_);
   out << "# HELP terrain_requests_total HTTP requests by route and status.\n"
          "# TYPE terrain_requests_total counter\n";
-  for (const auto& [key, n] : requests_) {
+  for (const auto& [key, n] : requests) {
     out << "terrain_requests_total{route=\"" << key.first << "\",status=\"" << key.second << "\"} "
         << n << "\n";
   }
   out << "# HELP terrain_request_seconds Time from a complete request to its response being ready "
          "to send.\n"
          "# TYPE terrain_request_seconds histogram\n";
-  for (const auto& [route, h] : latency_) {
+  for (const auto& [route, h] : latency) {
     histogram_lines(out, "terrain_request_seconds", "route=\"" + route + "\"", h.counts, h.count,
                     h.sum);
   }

@@ -15,6 +15,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket/rfc6455.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <iostream>
 #include <list>
@@ -101,55 +102,95 @@ struct HttpServer::State {
         if (stopping || ec == asio::error::operation_aborted) break;
         continue;  // e.g. too many open files: keep serving the others
       }
+      // Without TCP_NODELAY, Nagle's algorithm holds a body's last, partial segment until the
+      // segment before it is acknowledged, and the client may delay that ACK by 40 ms, all that
+      // time the connection idles (docs/performance.md). nginx sets it too. Headers still leave
+      // with their body (MSG_MORE, one gather write). Best effort: no error to act on.
+      boost::system::error_code unset;
+      socket.set_option(tcp::no_delay(true), unset);
       asio::co_spawn(worker.io, session(std::move(socket), worker), asio::detached);
     }
   }
 
-  // Deadlines for a connection, one timer re-armed for each read and write. When a read's
-  // deadline passes, the receiving side is shut (the pending read ends, and so does any read
-  // started after it) so that a 408 can still be sent; when a write's passes, the socket is
-  // closed. The handler runs on the connection's thread, like the session, and ignores a wait
-  // that a later arm or disarm has superseded.
+  // Deadlines for a connection. When a read's deadline passes, the receiving side is shut (the
+  // pending read ends, and so does any read started after it) so that a 408 can still be sent;
+  // when a write's passes, the socket is closed. The handler runs on the connection's thread,
+  // like the session.
+  //
+  // Arming only records when the deadline is due: cancelling and queueing the timer again for
+  // every read and write was about 8% of a cached answer's user-space work. A wait that ends
+  // early starts another, until the deadline is due or disarmed. No wait reaches further ahead
+  // than `horizon` (the shortest timeout), so a later arm, due at least that far ahead, never
+  // needs an earlier wake-up than the pending wait's.
   class Deadline {
    public:
     enum class Expiry { shut_receive, close };
 
-    explicit Deadline(const std::shared_ptr<tcp::socket>& socket)
-        : timer_(socket->get_executor()), state_(std::make_shared<Shared>()), socket_(socket) {}
-    ~Deadline() { timer_.cancel(); }
+    Deadline(const std::shared_ptr<tcp::socket>& socket, std::chrono::milliseconds horizon)
+        : state_(std::make_shared<State>(socket, horizon)) {}
+    ~Deadline() {
+      state_->ended = true;
+      state_->timer.cancel();
+    }
     Deadline(const Deadline&) = delete;
     Deadline& operator=(const Deadline&) = delete;
 
     void arm(int ms, Expiry expiry) {
-      const std::uint64_t armed = ++state_->generation;
-      state_->expired = false;
-      timer_.expires_after(std::chrono::milliseconds(ms));  // supersedes any pending wait
-      timer_.async_wait(
-          [state = state_, armed, expiry, weak = socket_](const boost::system::error_code& ec) {
-            if (ec || state->generation != armed) return;
-            state->expired = true;
-            if (auto s = weak.lock()) {
-              boost::system::error_code ignored;
-              if (expiry == Expiry::close) {
-                s->close(ignored);
-              } else {
-                s->shutdown(tcp::socket::shutdown_receive, ignored);
-              }
-            }
-          });
+      State& s = *state_;
+      s.due = Clock::now() + std::chrono::milliseconds(ms);
+      s.expiry = expiry;
+      s.armed = true;
+      s.expired = false;
+      if (!s.waiting || s.timer.expiry() > s.due) wait(state_);
     }
-    /// Ends the current deadline; the timer's wait lapses harmlessly (re-arming cancels it).
-    void disarm() { ++state_->generation; }
+    /// Ends the current deadline; a pending wait then lapses harmlessly.
+    void disarm() { state_->armed = false; }
     bool expired() const { return state_->expired; }
 
    private:
-    struct Shared {
-      std::uint64_t generation = 0;
+    using Clock = std::chrono::steady_clock;
+    struct State {
+      State(const std::shared_ptr<tcp::socket>& s, std::chrono::milliseconds h)
+          : timer(s->get_executor()), socket(s), horizon(h) {}
+      asio::steady_timer timer;
+      std::weak_ptr<tcp::socket> socket;
+      std::chrono::milliseconds horizon;
+      Clock::time_point due{};
+      Expiry expiry = Expiry::close;
+      std::uint64_t wait_id = 0;  // the pending wait; an older one's end is ignored
+      bool armed = false;
       bool expired = false;
+      bool waiting = false;
+      bool ended = false;  // the connection is gone: a queued wait's end does nothing
     };
-    asio::steady_timer timer_;
-    std::shared_ptr<Shared> state_;
-    std::weak_ptr<tcp::socket> socket_;
+
+    static void wait(const std::shared_ptr<State>& state) {
+      State& s = *state;
+      const std::uint64_t id = ++s.wait_id;
+      s.waiting = true;
+      s.timer.expires_at(std::min(s.due, Clock::now() + s.horizon));  // ends any pending wait
+      s.timer.async_wait([state, id](const boost::system::error_code& ec) {
+        State& now = *state;
+        if (id != now.wait_id) return;  // superseded by a later wait
+        now.waiting = false;
+        if (ec || now.ended || !now.armed) return;
+        if (Clock::now() < now.due) {
+          wait(state);
+          return;
+        }
+        now.expired = true;
+        if (auto socket = now.socket.lock()) {
+          boost::system::error_code ignored;
+          if (now.expiry == Expiry::close) {
+            socket->close(ignored);
+          } else {
+            socket->shutdown(tcp::socket::shutdown_receive, ignored);
+          }
+        }
+      });
+    }
+
+    std::shared_ptr<State> state_;
   };
 
   // Writes a response: the status line and fields, then the body, in one gather write. The
@@ -174,7 +215,8 @@ struct HttpServer::State {
   // goes with MSG_MORE so that it leaves in one segment with the start of the body.
   static awaitable<void> send_file(tcp::socket& socket, const std::string& header,
                                    const SealedFile& file, boost::system::error_code& ec) {
-    socket.native_non_blocking(true, ec);
+    // Setting the mode is a system call each time; Asio's own reads have usually set it.
+    if (!socket.native_non_blocking()) socket.native_non_blocking(true, ec);
     if (ec) co_return;
     std::size_t sent = 0;
     while (sent < header.size()) {
@@ -213,7 +255,9 @@ struct HttpServer::State {
   awaitable<void> session(tcp::socket accepted, Worker& worker) {
     auto stream = std::make_shared<tcp::socket>(std::move(accepted));
     beast::flat_buffer buffer;
-    Deadline deadline(stream);
+    Deadline deadline(stream, std::chrono::milliseconds(
+                                  std::min({config.header_timeout_ms, config.idle_timeout_ms,
+                                            config.body_timeout_ms, config.request_timeout_ms})));
     // Only this worker's thread touches its idle list.
     auto registration = worker.idle.end();
     auto set_idle = [&](bool is_idle) {

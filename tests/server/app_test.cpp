@@ -26,6 +26,8 @@ class AppTest : public ::testing::Test {
     config.data_dir = dir_.string();
     config.scenes_dir = std::string(TERRAIN_SOURCE_DIR) + "/config/scenes";
     config.planets_dir = std::string(TERRAIN_SOURCE_DIR) + "/config/planets";
+    config.cors_origins = {"https://a.example"};
+    config.write_token = "app-test-token";
     auto store = open_sqlite_store(config.data_dir);
     ASSERT_TRUE(store.ok());
     app_ = new App(config, std::move(store).value());
@@ -129,6 +131,96 @@ TEST_F(AppTest, GeneratedTilesAreCachedAndIdentical) {
   EXPECT_EQ(first.body().view(), second.body().view());
   EXPECT_EQ(first[http::field::etag], second[http::field::etag]);
   EXPECT_GE(app_->cache().hits(), 1);
+}
+
+// A tile of an immutable URL asked for again is answered by a remembered route, without parsing,
+// resolving or building its key: with the very status, fields and bytes of the full route, for
+// GET and HEAD, HTTP/1.0 and 1.1, revalidation, gzip and CORS, and one cache hit counted per
+// request (a scene version's and a planet id's tiles alike).
+TEST_F(AppTest, RememberedTileRoutesAnswerAsTheFullRoute) {
+  const std::string planet = "/api/v1/planets/" + app_->default_planet_id();
+  for (const std::string& url :
+       {std::string("/api/v1/scenes/hills-river@1/tiles/0/0/0.png?scheme=local&encoding=gray16"),
+        std::string("/api/v1/scenes/hills-river@1/mesh/0/0/0.glb?grid=9"),
+        planet + "/tiles/1/1/0.png?encoding=terrarium"}) {
+    SCOPED_TRACE(url);
+    const Response first = get(url);  // generated and cached; the route is remembered
+    ASSERT_EQ(first.result(), http::status::ok) << first.body().view();
+    const std::string etag(first[http::field::etag]);
+    const std::vector<std::vector<std::pair<http::field, std::string>>> variants = {
+        {},
+        {{http::field::if_none_match, etag}},
+        {{http::field::if_none_match, "\"other\", " + etag}},
+        {{http::field::accept_encoding, "gzip"}},
+        {{http::field::origin, "https://a.example"}},
+        {{http::field::origin, "https://b.example"}},
+        {{http::field::connection, "close"}},
+    };
+    int spelling = 0;
+    for (const http::verb method : {http::verb::get, http::verb::head}) {
+      for (const unsigned version : {11u, 10u}) {
+        for (const auto& headers : variants) {
+          // The same product under a URL not seen before takes the full route.
+          Request full{method, url + "&spelling=" + std::to_string(++spelling), version};
+          Request remembered{method, url, version};
+          for (const auto& [field, value] : headers) {
+            full.set(field, value);
+            remembered.set(field, value);
+          }
+          const Outcome expected = app_->handle(full);
+          const std::int64_t hits = app_->cache().hits(), misses = app_->cache().misses();
+          const Outcome answered = app_->handle(remembered);
+          EXPECT_EQ(app_->cache().hits(), hits + 1);
+          EXPECT_EQ(app_->cache().misses(), misses);
+          ASSERT_TRUE(std::holds_alternative<Response>(expected));
+          ASSERT_TRUE(std::holds_alternative<Response>(answered));
+          const Response& a = std::get<Response>(expected);
+          const Response& b = std::get<Response>(answered);
+          EXPECT_EQ(a.result(), b.result());
+          EXPECT_EQ(a.version(), b.version());
+          EXPECT_EQ(a.body().view(), b.body().view());
+          std::vector<std::pair<std::string, std::string>> fields_a, fields_b;
+          for (const auto& f : a) fields_a.emplace_back(f.name_string(), f.value());
+          for (const auto& f : b) fields_b.emplace_back(f.name_string(), f.value());
+          EXPECT_EQ(fields_a, fields_b);
+        }
+      }
+    }
+  }
+}
+
+// A head ref names whatever version is newest: its tiles are never answered by a remembered
+// route, so a new version's tile shows at once.
+TEST_F(AppTest, HeadRefTilesFollowNewVersions) {
+  auto scene = [](double elevation) {
+    return nlohmann::json{
+        {"format", "terrain-scene/1"},
+        {"name", "Remembered"},
+        {"seed", 1},
+        {"extent", {{"min", {-1000, -1000}}, {"max", {1000, 1000}}}},
+        {"root", {{"type", "disc"}, {"center", {0, 0}}, {"radius", 800}, {"elevation", elevation}}}}
+        .dump();
+  };
+  auto write = [](http::verb method, const std::string& target, const std::string& body) {
+    Request request{method, target, 11};
+    request.set(http::field::authorization, "Bearer app-test-token");
+    request.body() = body;
+    request.prepare_payload();
+    return std::get<Response>(app_->handle(request));
+  };
+  ASSERT_EQ(write(http::verb::post, "/api/v1/scenes?id=remembered", scene(100)).result(),
+            http::status::created);
+  const std::string head = "/api/v1/scenes/remembered/tiles/0/0/0.png?scheme=local";
+  const Response v1 = get(head);
+  ASSERT_EQ(v1.result(), http::status::ok) << v1.body().view();
+  EXPECT_EQ(get(head)[http::field::etag], v1[http::field::etag]);  // from the cache
+  ASSERT_EQ(write(http::verb::put, "/api/v1/scenes/remembered", scene(300)).result(),
+            http::status::ok);
+  const Response v2 = get(head);
+  ASSERT_EQ(v2.result(), http::status::ok);
+  EXPECT_NE(v2[http::field::etag], v1[http::field::etag]);
+  EXPECT_EQ(get("/api/v1/scenes/remembered@1/tiles/0/0/0.png?scheme=local")[http::field::etag],
+            v1[http::field::etag]);
 }
 
 }  // namespace

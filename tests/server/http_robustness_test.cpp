@@ -121,6 +121,22 @@ TEST_F(HttpLimits, SlowBodyIs408) {
   EXPECT_EQ(body_json(get(port_, "/api/v1/scenes/hills-river/versions"))["versions"].size(), 1u);
 }
 
+// A keep-alive connection waits the idle timeout for its next request, not the (shorter) header
+// timeout of its first, and is closed once the idle timeout has passed.
+TEST_F(HttpLimits, KeepAliveConnectionWaitsTheIdleTimeoutThenCloses) {
+  start({"--header-timeout-ms", "200", "--idle-timeout-ms", "1500"});
+  Connection c(port_);
+  c.send(request_text("GET", "/healthz"));
+  EXPECT_EQ(c.read().result_int(), 200u);
+  std::this_thread::sleep_for(Millis(700));  // more than three header timeouts
+  c.send(request_text("GET", "/healthz"));
+  EXPECT_EQ(c.read().result_int(), 200u);
+  const auto answered = Clock::now();
+  ASSERT_TRUE(c.closed_within(Millis(5'000)));
+  EXPECT_GE(Clock::now() - answered, Millis(1'300));
+  EXPECT_LT(Clock::now() - answered, Millis(4'000));
+}
+
 TEST_F(HttpLimits, MalformedRequestsAre400) {
   start({});
   for (const char* text :

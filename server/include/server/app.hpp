@@ -24,7 +24,9 @@
 #include "server/redis_cache.hpp"
 #include "server/static_files.hpp"
 #include "server/store.hpp"
+#include "server/thread_shards.hpp"
 #include "terrain/scene_diff.hpp"
+#include "terrain/tile_image.hpp"
 #include "terrain/tile_source.hpp"
 
 namespace server {
@@ -95,6 +97,28 @@ class App {
  private:
   struct Target;
   Outcome route(const Request& request, const Target& target);
+
+  /// What the URL of an immutable tile or mesh came to once routed: the cache key of its bytes
+  /// and the headers that the URL alone decides.
+  struct ProductRoute {
+    std::string cache_key;
+    std::string cache_control;
+    std::optional<terrain::Gray16Encoding> gray16;
+  };
+  struct TargetHash {
+    using is_transparent = void;
+    std::size_t operator()(std::string_view target) const noexcept {
+      return std::hash<std::string_view>{}(target);
+    }
+  };
+  /// Product routes by exact request target, per thread (no lock on the way of a cached tile).
+  using ProductRoutes = std::unordered_map<std::string, ProductRoute, TargetHash, std::equal_to<>>;
+  /// The answer to a GET or HEAD of an immutable product URL seen before whose bytes are in the
+  /// memory cache, without parsing, resolving or building the cache key again; else nullopt, and
+  /// the request takes the full route (which counts the cache miss).
+  std::optional<Response> cached_product(const Request& request);
+  /// Remembers a product URL whose answer depends on the target alone (not on Accept, say).
+  void remember_product_route(const Request& request, ProductRoute route);
   Response list_scenes(const Request& request);
   Response create_scene(const Request& request, const Target& target);
   Response put_scene(const Request& request, const std::string& id);
@@ -186,6 +210,8 @@ class App {
   std::unordered_map<std::string, std::pair<LoadedVersion, std::chrono::steady_clock::time_point>>
       resolved_;
   void forget_head(const std::string& id);
+
+  ThreadShards<ProductRoutes> product_routes_;
 
   LiveHub live_;
   std::mutex changes_mutex_;

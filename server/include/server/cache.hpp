@@ -30,6 +30,8 @@ class ProductCache {
   explicit ProductCache(std::int64_t budget_bytes) : budget_(budget_bytes) {}
 
   std::shared_ptr<const CachedProduct> find(const std::string& key);
+  /// Like find, but a miss is not counted: for a first look whose failure a find follows.
+  std::shared_ptr<const CachedProduct> find_hit(const std::string& key);
   /// Inserts (or refreshes) an entry, evicting the least recently used beyond the budget. An
   /// entry larger than the whole budget is not kept.
   void insert(const std::string& key, std::shared_ptr<const CachedProduct> product);

@@ -9,6 +9,9 @@
 #include <mutex>
 #include <string>
 #include <string_view>
+#include <vector>
+
+#include "server/thread_shards.hpp"
 
 namespace server {
 
@@ -41,9 +44,25 @@ class Metrics {
     double sum = 0.0;
     void add(double v);
   };
-  mutable std::mutex mutex_;
-  std::map<std::pair<std::string, int>, std::int64_t> requests_;
-  std::map<std::string, Histogram> latency_;
+  // Every request is counted, so each thread counts in a shard of its own: I/O threads never
+  // wait for one another's lock or share its cache line. A scrape adds the shards up. Route
+  // labels are few, so short vectors do.
+  struct RequestShard {
+    struct Count {
+      std::string route;
+      int status = 0;
+      std::int64_t n = 0;
+    };
+    struct Latency {
+      std::string route;
+      Histogram histogram;
+    };
+    std::mutex mutex;  // taken by its thread and by a scrape, so hardly ever contended
+    std::vector<Count> counts;
+    std::vector<Latency> latency;
+  };
+  ThreadShards<RequestShard> request_shards_;
+  mutable std::mutex mutex_;  // guards generation_
   std::map<std::pair<std::string, std::string>, Histogram> generation_;
 };
 
