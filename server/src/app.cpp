@@ -175,15 +175,7 @@ http::status store_status(const StoreError& e) {
   return http::status::internal_server_error;
 }
 
-Response store_problem(const Request& request, const StoreError& e) {
-  Response r = problem(request, store_status(e),
-                       e.kind == StoreError::Kind::unavailable ? "Store unavailable"
-                       : e.kind == StoreError::Kind::not_found ? "Not found"
-                                                               : "Conflict",
-                       e.message);
-  if (e.kind == StoreError::Kind::unavailable) r.set(http::field::retry_after, "1");
-  return r;
-}
+using detail::store_problem;
 
 std::string version_etag(const SceneVersion& v) {
   return quote(v.hash);
@@ -511,6 +503,17 @@ terrain::Result<detail::TileShape, Response> detail::tile_shape(
   auto parsed = parse_tile_query(request, rest, query, false);
   if (!parsed) return parsed.error();
   return TileShape{parsed->scheme, parsed->address, parsed->format, parsed->options};
+}
+
+Response detail::store_problem(const Request& request, const StoreError& e,
+                               std::string_view pointer) {
+  Response r = problem(request, store_status(e),
+                       e.kind == StoreError::Kind::unavailable ? "Store unavailable"
+                       : e.kind == StoreError::Kind::not_found ? "Not found"
+                                                               : "Conflict",
+                       e.message, pointer);
+  if (e.kind == StoreError::Kind::unavailable) r.set(http::field::retry_after, "1");
+  return r;
 }
 
 App::App(Config config, std::unique_ptr<Store> store)
@@ -2050,23 +2053,20 @@ void App::store_shared(const std::string& key, const CachedProduct& product) {
 
 std::string App::redis_metrics() const {
   if (!redis_) return "";
-  std::string out;
-  auto line = [&](std::string_view name, std::string_view type, std::string_view help,
-                  std::int64_t value) {
-    out += "# HELP " + std::string(name) + " " + std::string(help) + "\n# TYPE " +
-           std::string(name) + " " + std::string(type) + "\n" + std::string(name) + " " +
-           std::to_string(value) + "\n";
-  };
-  line("terrain_redis_up", "gauge",
-       "1 when the last exchange with the shared Redis cache worked; 0: products are generated "
-       "instead",
-       redis_->up() ? 1 : 0);
-  line("terrain_redis_hits_total", "counter", "Products found in Redis.", redis_->hits());
-  line("terrain_redis_misses_total", "counter", "Products Redis did not have.", redis_->misses());
-  line("terrain_redis_errors_total", "counter",
-       "Failed exchanges with Redis (timeouts, refused connections, errors, unreadable entries).",
-       redis_->errors());
-  return out;
+  std::ostringstream out;
+  append_sample(out, "terrain_redis_up", "gauge",
+                "1 when the last exchange with the shared Redis cache worked; 0: products are "
+                "generated instead",
+                redis_->up() ? 1 : 0);
+  append_sample(out, "terrain_redis_hits_total", "counter", "Products found in Redis.",
+                redis_->hits());
+  append_sample(out, "terrain_redis_misses_total", "counter", "Products Redis did not have.",
+                redis_->misses());
+  append_sample(out, "terrain_redis_errors_total", "counter",
+                "Failed exchanges with Redis (timeouts, refused connections, errors, unreadable "
+                "entries).",
+                redis_->errors());
+  return out.str();
 }
 
 }  // namespace server

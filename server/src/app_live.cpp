@@ -93,14 +93,7 @@ terrain::Result<LiveConnection, Response> App::live_open(const Request& request)
                    "/id");
   }
   StoreResult<SceneVersion> head = store_->head(ref);
-  if (!head) {
-    return problem(
-        request,
-        head.error().kind == StoreError::Kind::not_found ? http::status::not_found
-                                                         : http::status::service_unavailable,
-        head.error().kind == StoreError::Kind::not_found ? "Not found" : "Store unavailable",
-        head.error().message);
-  }
+  if (!head) return detail::store_problem(request, head.error());
   LiveConnection connection;
   connection.scene = ref;
   if (const auto it = request.find(http::field::authorization); it != request.end()) {
@@ -593,14 +586,7 @@ Response App::scene_changes(const Request& request, const std::string& id, const
                      std::string("/") + name);
     }
     StoreResult<SceneVersion> v = store_->version(id, number);
-    if (!v) {
-      return problem(
-          request,
-          v.error().kind == StoreError::Kind::not_found ? http::status::not_found
-                                                        : http::status::service_unavailable,
-          v.error().kind == StoreError::Kind::not_found ? "Not found" : "Store unavailable",
-          v.error().message, std::string("/") + name);
-    }
+    if (!v) return detail::store_problem(request, v.error(), std::string("/") + name);
     return *v;
   };
   auto from = version_param("from");

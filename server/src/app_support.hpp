@@ -30,6 +30,9 @@ namespace server::detail {
 /// Scene ids: 1 to 64 characters of a-z, 0-9, '-' and '_'.
 bool valid_id(std::string_view id);
 
+/// The problem a store error answers with: 404, 412 (conflict) or 503 with Retry-After.
+Response store_problem(const Request& request, const StoreError& e, std::string_view pointer = "");
+
 /// A JSON answer, gzipped when the client accepts it and the body is worth compressing.
 Response json_response(const Request& request, http::status status, const nlohmann::json& body,
                        std::string_view media_type = "application/json");

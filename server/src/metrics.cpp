@@ -54,6 +54,12 @@ void histogram_lines(std::ostringstream& out, const std::string& name, const std
 
 }  // namespace
 
+void append_sample(std::ostream& out, std::string_view name, std::string_view type,
+                   std::string_view help, std::int64_t value) {
+  out << "# HELP " << name << ' ' << help << "\n# TYPE " << name << ' ' << type << '\n'
+      << name << ' ' << value << '\n';
+}
+
 std::string Metrics::prometheus(const ProductCache& cache) const {
   // The threads' shards added up, in the order of the series' labels.
   std::map<std::pair<std::string, int>, std::int64_t> requests;
@@ -90,31 +96,23 @@ std::string Metrics::prometheus(const ProductCache& cache) const {
                     "product=\"" + key.first + "\",backend=\"" + key.second + "\"", h.counts,
                     h.count, h.sum);
   }
-  out << "# HELP terrain_generation_queue Requests waiting for or on the generation pool.\n"
-         "# TYPE terrain_generation_queue gauge\nterrain_generation_queue "
-      << queued.load() << "\n";
-  out << "# HELP terrain_generation_rejected_total Requests refused with 503 (queue full).\n"
-         "# TYPE terrain_generation_rejected_total counter\nterrain_generation_rejected_total "
-      << rejected.load() << "\n";
-  out << "# HELP terrain_cache_reused_across_versions_total Tiles of a new version answered "
-         "with the previous version's bytes, which the edit provably left unchanged.\n"
-         "# TYPE terrain_cache_reused_across_versions_total counter\n"
-         "terrain_cache_reused_across_versions_total "
-      << reused_across_versions.load() << "\n";
-  out << "# HELP terrain_live_connections Open live-editing WebSockets.\n"
-         "# TYPE terrain_live_connections gauge\nterrain_live_connections "
-      << live_connections.load() << "\n";
-  out << "# HELP terrain_live_backlog_bytes Bytes queued for live connections and not yet "
-         "written to their sockets.\n# TYPE terrain_live_backlog_bytes gauge\n"
-         "terrain_live_backlog_bytes "
-      << live_backlog_bytes.load() << "\n";
-  out << "# HELP terrain_live_oversize_total Live connections closed for an oversize message "
-         "(1009).\n# TYPE terrain_live_oversize_total counter\nterrain_live_oversize_total "
-      << live_oversize.load() << "\n";
-  out << "# HELP terrain_live_slow_readers_total Live connections cut because they fell too "
-         "far behind.\n# TYPE terrain_live_slow_readers_total counter\n"
-         "terrain_live_slow_readers_total "
-      << live_slow_readers.load() << "\n";
+  append_sample(out, "terrain_generation_queue", "gauge",
+                "Requests waiting for or on the generation pool.", queued.load());
+  append_sample(out, "terrain_generation_rejected_total", "counter",
+                "Requests refused with 503 (queue full).", rejected.load());
+  append_sample(out, "terrain_cache_reused_across_versions_total", "counter",
+                "Tiles of a new version answered with the previous version's bytes, which the "
+                "edit provably left unchanged.",
+                reused_across_versions.load());
+  append_sample(out, "terrain_live_connections", "gauge", "Open live-editing WebSockets.",
+                live_connections.load());
+  append_sample(out, "terrain_live_backlog_bytes", "gauge",
+                "Bytes queued for live connections and not yet written to their sockets.",
+                live_backlog_bytes.load());
+  append_sample(out, "terrain_live_oversize_total", "counter",
+                "Live connections closed for an oversize message (1009).", live_oversize.load());
+  append_sample(out, "terrain_live_slow_readers_total", "counter",
+                "Live connections cut because they fell too far behind.", live_slow_readers.load());
   out << "# TYPE terrain_cache_hits_total counter\nterrain_cache_hits_total " << cache.hits()
       << "\n# TYPE terrain_cache_misses_total counter\nterrain_cache_misses_total "
       << cache.misses() << "\n# TYPE terrain_cache_evictions_total counter\n"

@@ -49,6 +49,22 @@ using Headers = std::vector<std::pair<std::string, std::string>>;
 inline constexpr Millis kIoTimeout{15'000};  ///< the longest any single response may take
 inline const std::string kToken = "integration-test-token";
 
+/// A free TCP port on 127.0.0.1 (free when asked; the caller retries when taken meanwhile).
+inline int free_port() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t size = sizeof address;
+  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size) != 0) {
+    if (fd >= 0) ::close(fd);
+    throw std::runtime_error("cannot find a free port");
+  }
+  ::close(fd);
+  return ntohs(address.sin_port);
+}
+
 inline int remaining_ms(Clock::time_point deadline) {
   const auto left = std::chrono::duration_cast<Millis>(deadline - Clock::now()).count();
   return left <= 0 ? 0 : static_cast<int>(left);

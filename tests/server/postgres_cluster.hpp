@@ -40,6 +40,8 @@
 #include <thread>
 #include <vector>
 
+#include "http_harness.hpp"
+
 namespace pg_test {
 
 namespace fs = std::filesystem;
@@ -159,21 +161,7 @@ inline void make_owned_dir(const fs::path& dir, const RunAs& as) {
   }
 }
 
-/// A free TCP port on 127.0.0.1 (free when asked; the caller retries when taken meanwhile).
-inline int free_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t size = sizeof address;
-  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
-      ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size) != 0) {
-    if (fd >= 0) ::close(fd);
-    throw std::runtime_error("cannot find a free port");
-  }
-  ::close(fd);
-  return ntohs(address.sin_port);
-}
+using http_test::free_port;
 
 /// The initdb'd template of this user and these binaries, made when missing.
 inline fs::path data_template(const RunAs& as) {

@@ -5,6 +5,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <iosfwd>
 #include <map>
 #include <mutex>
 #include <string>
@@ -16,6 +17,10 @@
 namespace server {
 
 class ProductCache;
+
+/// Writes one unlabelled sample with its HELP and TYPE lines (the text exposition format).
+void append_sample(std::ostream& out, std::string_view name, std::string_view type,
+                   std::string_view help, std::int64_t value);
 
 class Metrics {
  public:
