@@ -6,13 +6,17 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdlib>
+#include <map>
 #include <memory>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "gpu/evaluator.hpp"
+#include "gpu/program_glsl.hpp"
 #include "terrain/evaluate.hpp"
 #include "terrain/program.hpp"
 #include "terrain/scene.hpp"
@@ -44,12 +48,27 @@ const Fixture& craters() {
   return fixture;
 }
 
-gpu::GpuEvaluator* evaluator() {
-  static std::unique_ptr<gpu::GpuEvaluator> e = [] {
-    auto created = gpu::GpuEvaluator::create();
-    return created ? std::move(created).value() : nullptr;
-  }();
+gpu::GpuEvaluator* evaluator(gpu::ShaderMode mode = gpu::GpuOptions{}.shaders) {
+  static std::map<gpu::ShaderMode, std::unique_ptr<gpu::GpuEvaluator>> evaluators;
+  auto& e = evaluators[mode];
+  if (!e) {
+    gpu::GpuOptions options;
+    options.shaders = mode;
+    auto created = gpu::GpuEvaluator::create(options);
+    if (created) e = std::move(created).value();
+  }
   return e.get();
+}
+
+constexpr const char* kExampleScenes[] = {"butte",      "craters",        "hills-river",
+                                          "lake-dunes", "mountain-range", "winding-road"};
+constexpr const char* kModeNames[] = {"interpreter", "pruned", "unrolled", "automatic"};
+
+const Fixture& example(std::int64_t index) {
+  static std::map<std::int64_t, Fixture> fixtures;
+  auto it = fixtures.find(index);
+  if (it == fixtures.end()) it = fixtures.emplace(index, load(kExampleScenes[index])).first;
+  return it->second;
 }
 
 terrain::GridSpec grid_of(const Fixture& f, int side) {
@@ -61,6 +80,36 @@ terrain::GridSpec grid_of(const Fixture& f, int side) {
   return grid;
 }
 
+// Evaluates `grid` once to warm up (upload, shader compilation), then once per iteration.
+void time_grid(benchmark::State& state, gpu::GpuEvaluator& gpu, const terrain::Program& program,
+               const terrain::GridSpec& grid) {
+  if (!gpu.evaluate_grid(program, grid)) {
+    state.SkipWithError("evaluation failed");
+    return;
+  }
+  for (auto _ : state) {
+    auto result = gpu.evaluate_grid(program, grid);
+    benchmark::DoNotOptimize(result);
+  }
+  state.SetItemsProcessed(state.iterations() * grid.width * grid.height);
+}
+
+// Renders the example from its default camera once to warm up (shader, program, bounds grid),
+// then once per iteration; items are pixels.
+void time_picture(benchmark::State& state, gpu::GpuEvaluator& gpu, const Fixture& f, int width,
+                  int height) {
+  const terrain::Camera camera = terrain::default_camera(f.program, f.area, width, height);
+  if (!gpu.render(f.program, f.area, camera)) {
+    state.SkipWithError("rendering failed");
+    return;
+  }
+  for (auto _ : state) {
+    auto picture = gpu.render(f.program, f.area, camera);
+    benchmark::DoNotOptimize(picture);
+  }
+  state.SetItemsProcessed(state.iterations() * width * height);
+}
+
 void BM_GpuWindingRoad(benchmark::State& state) {
   gpu::GpuEvaluator* gpu = evaluator();
   if (gpu == nullptr) {
@@ -69,15 +118,7 @@ void BM_GpuWindingRoad(benchmark::State& state) {
   }
   const Fixture& f = winding_road();
   const terrain::GridSpec grid = grid_of(f, static_cast<int>(state.range(0)));
-  if (!gpu->evaluate_grid(f.program, grid)) {  // warm-up: upload and shader compilation
-    state.SkipWithError("evaluation failed");
-    return;
-  }
-  for (auto _ : state) {
-    auto result = gpu->evaluate_grid(f.program, grid);
-    benchmark::DoNotOptimize(result);
-  }
-  state.SetItemsProcessed(state.iterations() * grid.width * grid.height);
+  time_grid(state, *gpu, f.program, grid);
   state.SetLabel(gpu->device_name());
 }
 BENCHMARK(BM_GpuWindingRoad)->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -142,6 +183,56 @@ void BM_GpuTilesBatched(benchmark::State& state) {
 }
 BENCHMARK(BM_GpuTilesBatched)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// Every example in each shader mode (gpu::ShaderMode): a 256² grid, and a 64×40 picture from
+// the default camera. Args: scene index, mode. The unrolled mode is measured only where
+// automatic would choose it: unrolling the larger examples takes llvmpipe minutes to compile.
+// The evaluator and example of a shader-mode case, or null (the case skipped, saying why).
+std::pair<gpu::GpuEvaluator*, const Fixture*> shader_mode_case(benchmark::State& state) {
+  const auto mode = static_cast<gpu::ShaderMode>(state.range(1));
+  gpu::GpuEvaluator* gpu = evaluator(mode);
+  if (gpu == nullptr) {
+    state.SkipWithError("no EGL device");
+    return {nullptr, nullptr};
+  }
+  const Fixture& f = example(state.range(0));
+  if (mode == gpu::ShaderMode::unrolled && !gpu::unroll_pays(f.program)) {
+    state.SkipWithError("not unrolled: too large to compile quickly (gpu::unroll_pays)");
+    return {nullptr, nullptr};
+  }
+  state.SetLabel(std::string(kExampleScenes[state.range(0)]) + " " + kModeNames[state.range(1)]);
+  return {gpu, &f};
+}
+
+void BM_GpuShaderModeGrid(benchmark::State& state) {
+  const auto [gpu, fixture] = shader_mode_case(state);
+  if (gpu == nullptr) return;
+  const Fixture& f = *fixture;
+  const terrain::GridSpec grid = grid_of(f, 256);
+  time_grid(state, *gpu, f.program, grid);
+}
+
+void BM_GpuShaderModePicture(benchmark::State& state) {
+  const auto [gpu, fixture] = shader_mode_case(state);
+  if (gpu == nullptr) return;
+  const Fixture& f = *fixture;
+  time_picture(state, *gpu, f, 64, 40);
+}
+
+void shader_mode_args(benchmark::internal::Benchmark* b) {
+  for (int scene = 0; scene < 6; ++scene) {
+    for (int mode = 0; mode < 3; ++mode) b->Args({scene, mode});
+  }
+}
+BENCHMARK(BM_GpuShaderModeGrid)
+    ->Apply(shader_mode_args)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_GpuShaderModePicture)
+    ->Apply(shader_mode_args)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
+
 // Pictures of craters from its default camera; items are pixels.
 void BM_GpuPicture(benchmark::State& state) {
   gpu::GpuEvaluator* gpu = evaluator();
@@ -149,18 +240,8 @@ void BM_GpuPicture(benchmark::State& state) {
     state.SkipWithError("no EGL device");
     return;
   }
-  const Fixture& f = craters();
-  const auto width = static_cast<int>(state.range(0)), height = static_cast<int>(state.range(1));
-  const terrain::Camera camera = terrain::default_camera(f.program, f.area, width, height);
-  if (!gpu->render(f.program, f.area, camera)) {  // warm-up: shader, program and bounds grid
-    state.SkipWithError("rendering failed");
-    return;
-  }
-  for (auto _ : state) {
-    auto picture = gpu->render(f.program, f.area, camera);
-    benchmark::DoNotOptimize(picture);
-  }
-  state.SetItemsProcessed(state.iterations() * width * height);
+  time_picture(state, *gpu, craters(), static_cast<int>(state.range(0)),
+               static_cast<int>(state.range(1)));
   state.SetLabel(gpu->device_name());
 }
 BENCHMARK(BM_GpuPicture)

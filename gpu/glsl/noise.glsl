@@ -245,11 +245,38 @@ float octave_weight(int i, float octaves) {
   return 1.0 - u * u * u;
 }
 
+// A prelude may leave out fractal kinds and noise bases its programs do not use by defining
+// TERRAIN_USES_NOISE_<KIND> as 0 (gpu::node_type_defines), as interpreter.glsl does node types.
+#ifndef TERRAIN_USES_NOISE_FBM
+#define TERRAIN_USES_NOISE_FBM 1
+#endif
+#ifndef TERRAIN_USES_NOISE_RIDGED
+#define TERRAIN_USES_NOISE_RIDGED 1
+#endif
+#ifndef TERRAIN_USES_NOISE_HYBRID
+#define TERRAIN_USES_NOISE_HYBRID 1
+#endif
+#ifndef TERRAIN_USES_NOISE_WARPED
+#define TERRAIN_USES_NOISE_WARPED 1
+#endif
+#ifndef TERRAIN_USES_NOISE_GRADIENT
+#define TERRAIN_USES_NOISE_GRADIENT 1
+#endif
+#ifndef TERRAIN_USES_NOISE_SIMPLEX
+#define TERRAIN_USES_NOISE_SIMPLEX 1
+#endif
+
 Sample2 noise_basis2(uint basis, Lattice l, float x, float y) {
   TERRAIN_PRECISE float px = x + l.ox;
   TERRAIN_PRECISE float py = y + l.oy;
+#if TERRAIN_USES_NOISE_SIMPLEX && TERRAIN_USES_NOISE_GRADIENT
   if (basis == 1u) return noise_simplex2_kernel(px, py, l.key);
   return noise_gradient2_kernel(px, py, l.key);
+#elif TERRAIN_USES_NOISE_SIMPLEX
+  return noise_simplex2_kernel(px, py, l.key);
+#else
+  return noise_gradient2_kernel(px, py, l.key);
+#endif
 }
 
 uint noise_free_mask(float x) {
@@ -285,17 +312,50 @@ Sample2 fractal2(Fractal p, vec2 pt, float octaves) {
     TERRAIN_PRECISE float oamp = (p.kind == 2u ? p.amplitude : amplitude) * w;
     TERRAIN_PRECISE float oslope = oamp * frequency;
     Lattice l = noise_lattice(noise_hash2(p.seed, uint(i)));
+    // Where this octave samples the noise: one call shared by every kind, since a GPU (and a
+    // software rasterizer even more) pays for each call site in every branch it cannot skip.
+    TERRAIN_PRECISE float qx;
+    TERRAIN_PRECISE float qy;
+    TERRAIN_PRECISE float j11 = 0.0;
+    TERRAIN_PRECISE float j12 = 0.0;
+    TERRAIN_PRECISE float j21 = 0.0;
+    TERRAIN_PRECISE float j22 = 0.0;
+#if TERRAIN_USES_NOISE_WARPED
+    if (p.kind == 3u) {
+      // Warped: φ = twist·T + i·c2, q = f·Rot(φ)p + c3·T.
+      TERRAIN_PRECISE float phase = float(i) * p.warp_c2;
+      TERRAIN_PRECISE float phi = twist * sa + phase;
+      TERRAIN_PRECISE float phix = twist * sx;
+      TERRAIN_PRECISE float phiy = twist * sy;
+      Rotation r = noise_rotation(phi);
+      TERRAIN_PRECISE float f = frequency;
+      qx = f * (r.c * x - r.s * y) + p.warp_c3.x * sa;
+      qy = f * (r.s * x + r.c * y) + p.warp_c3.y * sa;
+      TERRAIN_PRECISE float tx = f * (r.dc * x - r.ds * y);
+      TERRAIN_PRECISE float ty = f * (r.ds * x + r.dc * y);
+      TERRAIN_PRECISE float fc = f * r.c;
+      TERRAIN_PRECISE float fs = f * r.s;
+      j11 = fc + tx * phix + p.warp_c3.x * sx;
+      j12 = (tx * phiy - fs) + p.warp_c3.x * sy;
+      j21 = fs + ty * phix + p.warp_c3.y * sx;
+      j22 = fc + ty * phiy + p.warp_c3.y * sy;
+    } else
+#endif
+    {
+      qx = x * frequency;
+      qy = y * frequency;
+    }
+    Sample2 n = noise_basis2(p.basis, l, qx, qy);
+    // Each kind's use of the sample; kind is one value, so at most one of these runs.
+#if TERRAIN_USES_NOISE_FBM
     if (p.kind == 0u) {
-      TERRAIN_PRECISE float qx = x * frequency;
-      TERRAIN_PRECISE float qy = y * frequency;
-      Sample2 n = noise_basis2(p.basis, l, qx, qy);
       v += oamp * n.value;
       dx += oslope * n.dx;
       dy += oslope * n.dy;
-    } else if (p.kind == 1u) {
-      TERRAIN_PRECISE float qx = x * frequency;
-      TERRAIN_PRECISE float qy = y * frequency;
-      Sample2 n = noise_basis2(p.basis, l, qx, qy);
+    }
+#endif
+#if TERRAIN_USES_NOISE_RIDGED
+    if (p.kind == 1u) {
       TERRAIN_PRECISE float nx = frequency * n.dx;
       TERRAIN_PRECISE float ny = frequency * n.dy;
       uint sign = floatBitsToUint(n.value) & 0x80000000u;
@@ -315,10 +375,10 @@ Sample2 fractal2(Fractal p, vec2 pt, float octaves) {
       TERRAIN_PRECISE float wy = p.ridge_gain * gy;
       sx = uintBitsToFloat(floatBitsToUint(wx) & fr);
       sy = uintBitsToFloat(floatBitsToUint(wy) & fr);
-    } else if (p.kind == 2u) {
-      TERRAIN_PRECISE float qx = x * frequency;
-      TERRAIN_PRECISE float qy = y * frequency;
-      Sample2 n = noise_basis2(p.basis, l, qx, qy);
+    }
+#endif
+#if TERRAIN_USES_NOISE_HYBRID
+    if (p.kind == 2u) {
       TERRAIN_PRECISE float nx = frequency * n.dx;
       TERRAIN_PRECISE float ny = frequency * n.dy;
       TERRAIN_PRECISE float s = (n.value + p.ridge_offset) * relative;
@@ -334,25 +394,10 @@ Sample2 fractal2(Fractal p, vec2 pt, float octaves) {
       sa = noise_clamp01(raw);
       sx = uintBitsToFloat(floatBitsToUint(px) & fr);
       sy = uintBitsToFloat(floatBitsToUint(py) & fr);
-    } else {
-      // Warped: φ = twist·T + i·c2, q = f·Rot(φ)p + c3·T.
-      TERRAIN_PRECISE float phase = float(i) * p.warp_c2;
-      TERRAIN_PRECISE float phi = twist * sa + phase;
-      TERRAIN_PRECISE float phix = twist * sx;
-      TERRAIN_PRECISE float phiy = twist * sy;
-      Rotation r = noise_rotation(phi);
-      TERRAIN_PRECISE float f = frequency;
-      TERRAIN_PRECISE float qx = f * (r.c * x - r.s * y) + p.warp_c3.x * sa;
-      TERRAIN_PRECISE float qy = f * (r.s * x + r.c * y) + p.warp_c3.y * sa;
-      TERRAIN_PRECISE float tx = f * (r.dc * x - r.ds * y);
-      TERRAIN_PRECISE float ty = f * (r.ds * x + r.dc * y);
-      TERRAIN_PRECISE float fc = f * r.c;
-      TERRAIN_PRECISE float fs = f * r.s;
-      TERRAIN_PRECISE float j11 = fc + tx * phix + p.warp_c3.x * sx;
-      TERRAIN_PRECISE float j12 = (tx * phiy - fs) + p.warp_c3.x * sy;
-      TERRAIN_PRECISE float j21 = fs + ty * phix + p.warp_c3.y * sx;
-      TERRAIN_PRECISE float j22 = fc + ty * phiy + p.warp_c3.y * sy;
-      Sample2 n = noise_basis2(p.basis, l, qx, qy);
+    }
+#endif
+#if TERRAIN_USES_NOISE_WARPED
+    if (p.kind == 3u) {
       v += oamp * n.value;
       dx += oamp * (n.dx * j11 + n.dy * j21);
       dy += oamp * (n.dx * j12 + n.dy * j22);
@@ -360,6 +405,7 @@ Sample2 fractal2(Fractal p, vec2 pt, float octaves) {
       sx += dx;
       sy += dy;
     }
+#endif
     frequency *= p.lacunarity;
     amplitude *= gain;
     relative *= gain;

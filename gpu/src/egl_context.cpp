@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cstring>
+#include <map>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -71,6 +73,27 @@ std::string gl_string(GLenum name) {
   return s != nullptr ? s : "?";
 }
 
+// eglInitialize and eglTerminate do not count: every context on one device shares one display
+// handle, and terminating it for one context would break the others (EGL_BAD_CONTEXT). So the
+// users of each display are counted here, and the last one terminates it.
+std::mutex display_users_mutex;
+std::map<EGLDisplay, int> display_users;
+
+bool initialize_display(EGLDisplay display, EGLint& major, EGLint& minor) {
+  const std::lock_guard lock(display_users_mutex);
+  if (eglInitialize(display, &major, &minor) != EGL_TRUE) return false;
+  ++display_users[display];
+  return true;
+}
+
+void release_display(EGLDisplay display) {
+  const std::lock_guard lock(display_users_mutex);
+  auto it = display_users.find(display);
+  if (it == display_users.end() || --it->second > 0) return;
+  display_users.erase(it);
+  eglTerminate(display);
+}
+
 }  // namespace
 
 struct EglContext::Handles {
@@ -83,7 +106,7 @@ struct EglContext::Handles {
     if (display != EGL_NO_DISPLAY) {
       eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
       if (context != EGL_NO_CONTEXT) eglDestroyContext(display, context);
-      if (initialized) eglTerminate(display);
+      if (initialized) release_display(display);
     }
     eglReleaseThread();
   }
@@ -96,7 +119,7 @@ using HandlesPtr = std::unique_ptr<EglContext::Handles>;
 // Initialises `display` and creates an ES 3.1 context that is current with no surface.
 terrain::Status setup(EglContext::Handles& h) {
   EGLint major = 0, minor = 0;
-  if (eglInitialize(h.display, &major, &minor) != EGL_TRUE) return egl_failure("eglInitialize");
+  if (!initialize_display(h.display, major, minor)) return egl_failure("eglInitialize");
   h.initialized = true;
   const char* extensions = eglQueryString(h.display, EGL_EXTENSIONS);
   if (!has_extension(extensions, "EGL_KHR_surfaceless_context")) {

@@ -8,10 +8,12 @@
 #include <list>
 #include <map>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
 #include "glsl_sources.hpp"
+#include "gpu/program_glsl.hpp"
 #include "terrain/node.hpp"
 #include "terrain/sphere_trace.hpp"
 
@@ -48,26 +50,6 @@ terrain::Status gl_check(const char* what) {
   }
   if (first != GL_NO_ERROR) return Error{std::string(what) + ": " + gl_error_text(first), ""};
   return terrain::Ok{};
-}
-
-// The node types each category of instruction may name, and whether the shader has them.
-bool shader_has(Op op, std::uint16_t type) {
-  switch (op) {
-    case Op::leaf:
-      return type >= 1 && type <= 4;  // disc, curve, contour, image
-    case Op::combine:
-      return type == 17 || type == 18 || type == 19;  // replace, add, lod
-    case Op::warp_begin:
-    case Op::warp_end:
-      return type == 32 || type == 33;  // transform, warp
-    case Op::blend_begin:
-    case Op::blend_add:
-    case Op::blend_end:
-    case Op::cull:
-    case Op::group:
-      return true;
-  }
-  return false;
 }
 
 std::string type_name(std::uint16_t id) {
@@ -143,10 +125,7 @@ std::vector<float> prepare_pool(const terrain::Program& program) {
         static_cast<float>(std::pow(static_cast<double>(pool[fractal + kLacunarity]),
                                     -static_cast<double>(pool[fractal + kHurst])));
   };
-  for (const terrain::Instruction& ins : program.code) {
-    if (ins.op == Op::leaf && ins.type == 1) fill(ins.params + 4);  // disc: fractal after 4 floats
-    if (ins.op == Op::warp_begin && ins.type == 33) fill(ins.params);  // warp: the fractal
-  }
+  for (const std::uint32_t at : fractal_offsets(program)) fill(at);
   return pool;
 }
 
@@ -154,12 +133,14 @@ namespace {
 
 struct Shader {
   GLuint program = 0;
+  std::uint64_t last_used = 0;
   GLint program_size = -1, first = -1, count = -1, grid_width = -1, grid_samples = -1, spacing = -1;
 };
 
 // The tracer's uniforms (compute_trace_main.glsl).
 struct TraceShader {
   GLuint program = 0;
+  std::uint64_t last_used = 0;
   GLint program_size = -1, first = -1, count = -1, phase = -1, budget = -1, eye = -1, forward = -1,
         right = -1, up = -1, tan_half = -1, aspect = -1, size = -1, area = -1, elevation = -1,
         epsilon = -1, max_steps = -1, initial_step = -1, lod_per_metre = -1, t_max = -1,
@@ -177,8 +158,23 @@ struct Uploaded {
   std::string key;
   GLuint code = 0;
   GLuint pool = 0;
-  std::pair<int, int> stacks;
+  ProgramShader shader;
+  std::string shader_key;
 };
+
+// Keeps at most `capacity` compiled shaders, the least recently used going first. Unrolled
+// shaders are one per program structure, so live editing would otherwise grow the set forever.
+// Nothing runs between the evaluator's (serialised) calls, so no shader in use is deleted.
+template <class ShaderMap>
+void keep_recent_shaders(ShaderMap& shaders, std::size_t capacity) {
+  while (shaders.size() > capacity) {
+    auto oldest = std::min_element(
+        shaders.begin(), shaders.end(),
+        [](const auto& a, const auto& b) { return a.second.last_used < b.second.last_used; });
+    glDeleteProgram(oldest->second.program);
+    shaders.erase(oldest);
+  }
+}
 
 GLuint make_buffer(const void* data, std::size_t bytes) {
   GLuint b = 0;
@@ -198,8 +194,11 @@ GLuint make_buffer(const void* data, std::size_t bytes) {
 struct GpuEvaluator::State {
   int glsl_version = 310;
   std::size_t capacity = 8;
-  std::map<std::pair<int, int>, Shader> shaders;
-  std::map<std::pair<int, int>, TraceShader> trace_shaders;
+  ShaderMode mode = ShaderMode::automatic;
+  std::size_t shader_capacity = 32;
+  std::uint64_t shader_clock = 0;         // ticks once per shader use: the LRU order
+  std::map<std::string, Shader> shaders;  // by ProgramShader::key()
+  std::map<std::string, TraceShader> trace_shaders;
   std::list<Uploaded> programs;      // most recently used first
   std::list<UploadedBounds> bounds;  // most recently used first
   GLuint positions = 0;
@@ -257,21 +256,42 @@ std::string_view trace_glsl() {
 
 namespace {
 
-std::string shader_header(int max_fields, int max_frames) {
-  return "#version 310 es\n#define TERRAIN_MAX_FIELDS " + std::to_string(max_fields) +
-         "\n#define TERRAIN_MAX_FRAMES " + std::to_string(max_frames) + "\n" +
-         std::string(glsl::compute_prelude()) + "\n" + std::string(shared_glsl()) + "\n";
+std::string shader_header(const ProgramShader& shader) {
+  return "#version 310 es\n#define TERRAIN_MAX_FIELDS " + std::to_string(shader.max_fields) +
+         "\n#define TERRAIN_MAX_FRAMES " + std::to_string(shader.max_frames) + "\n" +
+         shader.defines + std::string(glsl::compute_prelude()) + "\n" + std::string(shared_glsl()) +
+         "\n";
 }
 
 }  // namespace
 
-std::string compute_shader_source(int max_fields, int max_frames) {
-  return shader_header(max_fields, max_frames) + std::string(glsl::compute_main());
+std::string ProgramShader::key() const {
+  return std::to_string(max_fields) + "/" + std::to_string(max_frames) + "\n" + defines + unrolled;
 }
 
-std::string trace_shader_source(int max_fields, int max_frames) {
-  return shader_header(max_fields, max_frames) + std::string(glsl::trace()) + "\n" +
-         std::string(glsl::compute_trace_main());
+terrain::Result<ProgramShader> program_shader(const terrain::Program& program, ShaderMode mode) {
+  ProgramShader out;
+  std::tie(out.max_fields, out.max_frames) = shader_stacks(program);
+  if (mode == ShaderMode::automatic) {
+    mode = unroll_pays(program) ? ShaderMode::unrolled : ShaderMode::pruned;
+  }
+  if (mode == ShaderMode::pruned) out.defines = node_type_defines(program);
+  if (mode == ShaderMode::unrolled) {
+    terrain::Result<std::string> unrolled = specialised_program_glsl(program);
+    if (!unrolled) return unrolled.error();
+    out.defines = "#define TERRAIN_SPECIALISED\n" + node_type_defines(program);
+    out.unrolled = std::move(unrolled).value();
+  }
+  return out;
+}
+
+std::string compute_shader_source(const ProgramShader& shader) {
+  return shader_header(shader) + std::string(glsl::compute_main()) + "\n" + shader.unrolled;
+}
+
+std::string trace_shader_source(const ProgramShader& shader) {
+  return shader_header(shader) + std::string(glsl::trace()) + "\n" +
+         std::string(glsl::compute_trace_main()) + "\n" + shader.unrolled;
 }
 
 terrain::Result<std::unique_ptr<GpuEvaluator>> GpuEvaluator::create(const GpuOptions& options) {
@@ -283,6 +303,8 @@ terrain::Result<std::unique_ptr<GpuEvaluator>> GpuEvaluator::create(const GpuOpt
   if (!scope.ok()) return scope.status().error();
   out->state_ = std::make_unique<State>();
   out->state_->capacity = static_cast<std::size_t>(std::max(options.cached_programs, 1));
+  out->state_->mode = options.shaders;
+  out->state_->shader_capacity = static_cast<std::size_t>(std::max(options.cached_shaders, 1));
   GLint major = 0, minor = 0;
   glGetIntegerv(GL_MAJOR_VERSION, &major);
   glGetIntegerv(GL_MINOR_VERSION, &minor);
@@ -320,7 +342,7 @@ terrain::Status GpuEvaluator::supports(const terrain::Program& program) {
     if (static_cast<std::uint16_t>(ins.op) > static_cast<std::uint16_t>(Op::warp_end)) {
       return Error{"instruction " + std::to_string(pc) + " has an unknown op", ""};
     }
-    if (!shader_has(ins.op, ins.type)) {
+    if (!shader_implements(ins.op, ins.type)) {
       return Error{"the GPU evaluator does not implement node type '" + type_name(ins.type) +
                        "' (id " + std::to_string(ins.type) + ", node " + std::to_string(ins.node) +
                        "); evaluate this program on the CPU",
@@ -422,10 +444,13 @@ terrain::Result<const void*> GpuEvaluator::upload(const terrain::Program& progra
   }
   Uploaded u;
   u.key = key;
+  terrain::Result<ProgramShader> shader = program_shader(program, st.mode);
+  if (!shader) return shader.error();
+  u.shader = std::move(shader).value();
+  u.shader_key = u.shader.key();
   u.code = make_buffer(program.code.data(), program.code.size() * sizeof(terrain::Instruction));
   const std::vector<float> pool = prepare_pool(program);
   u.pool = make_buffer(pool.data(), pool.size() * sizeof(float));
-  u.stacks = shader_stacks(program);
   if (terrain::Status s = gl_check("uploading the program"); !s) {
     glDeleteBuffers(1, &u.code);
     glDeleteBuffers(1, &u.pool);
@@ -447,6 +472,11 @@ terrain::Result<unsigned> GpuEvaluator::compile(const std::string& source) {
     text.replace(0, std::strlen("#version 310 es"), "#version 320 es");
   }
   return context_->compile_compute(text);
+}
+
+std::size_t GpuEvaluator::compiled_shaders() const {
+  EglContext::Scope scope(*context_);
+  return state_->shaders.size() + state_->trace_shaders.size();
 }
 
 std::size_t GpuEvaluator::program_uploads() const {
@@ -475,10 +505,9 @@ terrain::Status GpuEvaluator::run(const terrain::Program& program, const Run& re
   const Uploaded& uploaded = *static_cast<const Uploaded*>(*uploaded_at);
 
   // The shader for these stack sizes, compiled once.
-  auto found = st.shaders.find(uploaded.stacks);
+  auto found = st.shaders.find(uploaded.shader_key);
   if (found == st.shaders.end()) {
-    terrain::Result<unsigned> compiled =
-        compile(compute_shader_source(uploaded.stacks.first, uploaded.stacks.second));
+    terrain::Result<unsigned> compiled = compile(compute_shader_source(uploaded.shader));
     if (!compiled) return compiled.error();
     Shader s;
     s.program = compiled.value();
@@ -488,8 +517,10 @@ terrain::Status GpuEvaluator::run(const terrain::Program& program, const Run& re
     s.grid_width = glGetUniformLocation(s.program, "u_grid_width");
     s.grid_samples = glGetUniformLocation(s.program, "u_grid_samples");
     s.spacing = glGetUniformLocation(s.program, "u_spacing");
-    found = st.shaders.emplace(uploaded.stacks, s).first;
+    found = st.shaders.emplace(uploaded.shader_key, s).first;
   }
+  found->second.last_used = ++st.shader_clock;
+  keep_recent_shaders(st.shaders, st.shader_capacity);
   const Shader& shader = found->second;
 
   const std::size_t in_bytes = request.positions.size() * sizeof(float);
@@ -652,10 +683,9 @@ terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& p
     }
   } release{temporary_bounds};
 
-  auto found = st.trace_shaders.find(uploaded.stacks);
+  auto found = st.trace_shaders.find(uploaded.shader_key);
   if (found == st.trace_shaders.end()) {
-    terrain::Result<unsigned> compiled =
-        compile(trace_shader_source(uploaded.stacks.first, uploaded.stacks.second));
+    terrain::Result<unsigned> compiled = compile(trace_shader_source(uploaded.shader));
     if (!compiled) return compiled.error();
     TraceShader s;
     s.program = compiled.value();
@@ -683,8 +713,10 @@ terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& p
     s.water_level = at("u_water_level");
     s.span = at("u_span");
     s.sun = at("u_sun");
-    found = st.trace_shaders.emplace(uploaded.stacks, s).first;
+    found = st.trace_shaders.emplace(uploaded.shader_key, s).first;
   }
+  found->second.last_used = ++st.shader_clock;
+  keep_recent_shaders(st.trace_shaders, st.shader_capacity);
   const TraceShader& shader = found->second;
 
   const std::size_t out_bytes = pixels * 4 * sizeof(std::uint32_t);

@@ -11,6 +11,7 @@
 #include <tuple>
 #include <vector>
 
+#include "example_scenes.hpp"
 #include "gpu/egl_context.hpp"
 #include "gpu/evaluator.hpp"
 #include "terrain/evaluate.hpp"
@@ -167,6 +168,27 @@ TEST(EglContext, RefusesADeviceThatDoesNotExistWithAClearError) {
       << context.error().message;
 }
 
+TEST(GpuEvaluator, KeepsWorkingWhenAnotherEvaluatorOnTheDeviceGoes) {
+  const terrain::NodeType* disc = terrain::find_node_type("disc");
+  ASSERT_NE(disc, nullptr);
+  const terrain::Program program = compile_or_throw(example_scene(*disc));
+  const std::vector<float> x{0.0f, 10.0f}, y{0.0f, 5.0f};
+  std::vector<float> before(2), after(2);
+  auto first = GpuEvaluator::create();
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  ASSERT_TRUE(first.value()->evaluate(program, x, y, 0.0f, before.data(), nullptr, nullptr).ok());
+  {
+    auto second = GpuEvaluator::create();  // the same EGL display, initialised again
+    ASSERT_TRUE(second.ok()) << second.error().message;
+    std::vector<float> f(2);
+    ASSERT_TRUE(second.value()->evaluate(program, x, y, 0.0f, f.data(), nullptr, nullptr).ok());
+  }
+  const terrain::Status s =
+      first.value()->evaluate(program, x, y, 0.0f, after.data(), nullptr, nullptr);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_EQ(before, after);
+}
+
 TEST(EglContext, ReportsShaderCompileFailuresWithTheDriverLog) {
   auto context = EglContext::create();
   ASSERT_TRUE(context.ok()) << context.error().message;
@@ -181,7 +203,7 @@ TEST(EglContext, ReportsShaderCompileFailuresWithTheDriverLog) {
 }
 
 TEST(GpuShader, AssemblesFromTheSharedGlslFiles) {
-  const std::string source = compute_shader_source(8, 2);
+  const std::string source = compute_shader_source(ProgramShader{8, 2, "", ""});
   EXPECT_EQ(source.rfind("#version 310 es", 0), 0u);
   EXPECT_NE(source.find("#define TERRAIN_MAX_FIELDS 8"), std::string::npos);
   for (const char* function : {"Sample2 fractal2(", "Field disc_leaf(", "Field curve_leaf(",
@@ -232,15 +254,7 @@ INSTANTIATE_TEST_SUITE_P(Kinds, EveryFractalOnGpu,
                                   std::get<1>(entry.param);
                          });
 
-std::vector<std::string> example_scene_files() {
-  std::vector<std::string> files;
-  for (const auto& entry :
-       std::filesystem::directory_iterator(std::string(TERRAIN_SOURCE_DIR) + "/config/scenes")) {
-    if (entry.path().extension() == ".json") files.push_back(entry.path().string());
-  }
-  std::sort(files.begin(), files.end());
-  return files;
-}
+using examples::scene_files;
 
 class EveryExampleSceneOnGpu : public ::testing::TestWithParam<std::string> {};
 
@@ -254,12 +268,8 @@ TEST_P(EveryExampleSceneOnGpu, MatchesTheCpuReference) {
   expect_scene_matches(*scene, program, "scene " + name);
 }
 
-INSTANTIATE_TEST_SUITE_P(ConfigScenes, EveryExampleSceneOnGpu,
-                         ::testing::ValuesIn(example_scene_files()), [](const auto& entry) {
-                           std::string n = std::filesystem::path(entry.param).stem().string();
-                           std::replace(n.begin(), n.end(), '-', '_');
-                           return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(ConfigScenes, EveryExampleSceneOnGpu, ::testing::ValuesIn(scene_files()),
+                         [](const auto& entry) { return examples::test_name(entry.param); });
 
 TEST(GpuEvaluator, PointListsGiveTheSameValuesAsTheCpuAtThosePoints) {
   terrain::Result<terrain::Scene> scene =

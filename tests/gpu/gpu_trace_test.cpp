@@ -14,8 +14,10 @@
 #include <string>
 #include <vector>
 
+#include "example_scenes.hpp"
 #include "gpu/egl_context.hpp"
 #include "gpu/evaluator.hpp"
+#include "gpu/program_glsl.hpp"
 #include "terrain/evaluate.hpp"
 #include "terrain/program.hpp"
 #include "terrain/scene.hpp"
@@ -46,15 +48,7 @@ GpuEvaluator& tracer() {
   return *evaluator;
 }
 
-std::vector<std::string> example_scene_files() {
-  std::vector<std::string> files;
-  for (const auto& entry :
-       std::filesystem::directory_iterator(std::string(TERRAIN_SOURCE_DIR) + "/config/scenes")) {
-    if (entry.path().extension() == ".json") files.push_back(entry.path().string());
-  }
-  std::sort(files.begin(), files.end());
-  return files;
-}
+using examples::scene_files;
 
 struct Loaded {
   terrain::Scene scene;
@@ -127,12 +121,8 @@ TEST_P(EveryExamplePictureOnGpu, MatchesTheCpuPicture) {
   EXPECT_GE(share(same_colour), kAgreeingShare);
 }
 
-INSTANTIATE_TEST_SUITE_P(ConfigScenes, EveryExamplePictureOnGpu,
-                         ::testing::ValuesIn(example_scene_files()), [](const auto& entry) {
-                           std::string n = std::filesystem::path(entry.param).stem().string();
-                           std::replace(n.begin(), n.end(), '-', '_');
-                           return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(ConfigScenes, EveryExamplePictureOnGpu, ::testing::ValuesIn(scene_files()),
+                         [](const auto& entry) { return examples::test_name(entry.param); });
 
 TEST(GpuPicture, UsesTheCallersLipschitzGridAndPlainTracing) {
   const Loaded loaded = load(std::string(TERRAIN_SOURCE_DIR) + "/config/scenes/hills-river.json");
@@ -252,7 +242,7 @@ precision highp usampler2D;
 precision highp sampler2D;
 #define TERRAIN_PRECISE
 #define TERRAIN_MAX_FIELDS 8
-#define TERRAIN_MAX_FRAMES 2
+#define TERRAIN_MAX_FRAMES 4
 uniform highp usampler2D u_code;
 uniform highp usampler2D u_pool;
 uniform highp sampler2D u_bounds;
@@ -288,6 +278,27 @@ void main() {
   std::string broken = source;
   broken.replace(broken.find("float fetch_bounds"), 5, "int  ");
   EXPECT_FALSE(context.value()->check_fragment_shader(broken).ok());
+
+  // The browser's other shader modes (js/scene_view.js): the pruned interpreter (the bundle's
+  // glsl_defines before the shared GLSL) and the unrolled program (TERRAIN_SPECIALISED, and the
+  // bundle's program_glsl after main).
+  terrain::Result<terrain::Scene> scene =
+      terrain::load_scene_file(std::string(TERRAIN_SOURCE_DIR) + "/config/scenes/lake-dunes.json");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  terrain::Result<terrain::Program> program = terrain::compile(*scene);
+  ASSERT_TRUE(program.ok()) << program.error().message;
+  const std::string shared = std::string(shared_glsl()) + "\n" + std::string(trace_glsl());
+  const std::string defines = node_type_defines(*program);
+  const terrain::Status pruned =
+      context.value()->check_fragment_shader(prelude + defines + shared + main);
+  EXPECT_TRUE(pruned.ok()) << pruned.error().message;
+  terrain::Result<std::string> unrolled = specialised_program_glsl(*program);
+  ASSERT_TRUE(unrolled.ok()) << unrolled.error().message;
+  const terrain::Status specialised = context.value()->check_fragment_shader(
+      prelude + "#define TERRAIN_SPECIALISED\n" + defines + shared + main + *unrolled);
+  EXPECT_TRUE(specialised.ok()) << specialised.error().message;
+  // Without TERRAIN_SPECIALISED the interpreter's definition clashes with the unrolled one.
+  EXPECT_FALSE(context.value()->check_fragment_shader(prelude + shared + main + *unrolled).ok());
 }
 
 }  // namespace

@@ -19,8 +19,18 @@
 
 namespace gpu {
 
+/// How the shaders evaluate a program (gpu/program_glsl.hpp).
+enum class ShaderMode {
+  interpreter,  ///< one shader per stack size interprets every program
+  pruned,       ///< the interpreter without the code of node types the program does not use
+  unrolled,     ///< the program's own unrolled evaluate_program: a shader per program structure
+  automatic,    ///< unrolled where that pays (gpu::unroll_pays), else pruned
+};
+
 struct GpuOptions {
   ContextOptions context;
+  ShaderMode shaders = ShaderMode::automatic;
+  int cached_shaders = 32;  ///< compiled shader programs kept (least recently used goes)
   int cached_programs = 8;  ///< uploaded programs kept on the GPU (least recently used goes)
 };
 
@@ -64,6 +74,9 @@ class GpuEvaluator {
 
   /// How many programs have been uploaded (upload cache misses) since creation.
   std::size_t program_uploads() const;
+  /// How many compiled shaders are kept now (grid and tracing shaders), at most
+  /// GpuOptions::cached_shaders of each.
+  std::size_t compiled_shaders() const;
 
   /// The GL renderer and version (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
   std::string device_name() const;
@@ -96,9 +109,20 @@ std::string_view trace_glsl();
 /// The field- and frame-stack sizes (TERRAIN_MAX_FIELDS, TERRAIN_MAX_FRAMES) that a shader
 /// interpreting `program` declares.
 std::pair<int, int> shader_stacks(const terrain::Program& program);
-/// The complete compute shader for the given stack sizes (for tests and diagnostics).
-std::string compute_shader_source(int max_fields, int max_frames);
-/// The complete tracing compute shader for the given stack sizes.
-std::string trace_shader_source(int max_fields, int max_frames);
+
+/// What the shader evaluating one program is built from; programs with equal ones share it.
+struct ProgramShader {
+  int max_fields = 1;  ///< TERRAIN_MAX_FIELDS, TERRAIN_MAX_FRAMES (shader_stacks)
+  int max_frames = 1;
+  std::string defines;   ///< put before the shared GLSL (node_type_defines, TERRAIN_SPECIALISED)
+  std::string unrolled;  ///< put after everything else (specialised_program_glsl), or empty
+  /// Everything above in one string: equal keys, equal shaders.
+  std::string key() const;
+};
+terrain::Result<ProgramShader> program_shader(const terrain::Program& program, ShaderMode mode);
+/// The complete compute shader (for tests and diagnostics).
+std::string compute_shader_source(const ProgramShader& shader);
+/// The complete tracing compute shader.
+std::string trace_shader_source(const ProgramShader& shader);
 
 }  // namespace gpu
