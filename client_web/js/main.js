@@ -27,6 +27,13 @@ const SCENE_HELP = helpLine.textContent;
 const PLANET_HELP = 'Drag to move the globe · right-drag or shift-drag to turn and tilt · wheel or pinch to zoom · ' +
   'arrows / WASD move, Q E turn, R F tilt, + − zoom';
 const PLANET_PREFIX = 'planet:';  // picker values of planets
+// How the tracer evaluates programs (SceneView.create): `?glsl=pruned`, `unrolled` or
+// `interpreter` in the page's address compares the modes on a given GPU; the default is
+// 'automatic'.
+const SHADER_MODE = (() => {
+  const asked = new URLSearchParams(location.search).get('glsl');
+  return ['automatic', 'pruned', 'unrolled', 'interpreter'].includes(asked) ? asked : 'automatic';
+})();
 
 const state = {
   gl: null,
@@ -109,7 +116,7 @@ async function loadScene(id, camera) {
   try {
     const bundle = await fetchJson(`/api/v1/scenes/${encodeURIComponent(id)}/trace.json`);
     if (state.loading !== token) return;
-    const view = SceneView.create(state.gl, state.glsl, bundle);
+    const view = SceneView.create(state.gl, state.glsl, bundle, SHADER_MODE);
     leavePlanetMode();
     state.view?.dispose();
     state.view = view;
@@ -197,7 +204,7 @@ async function loadVersion(version) {
       { signal: controller.signal });
     if (state.liveId !== scene || !state.view || version <= state.shown.version) return;
     if (!state.view.replaceBundle(bundle)) {
-      const view = SceneView.create(state.gl, state.glsl, bundle);
+      const view = SceneView.create(state.gl, state.glsl, bundle, SHADER_MODE);
       state.view.dispose();
       state.view = view;
     }

@@ -1,7 +1,9 @@
 // Sphere tracing a scene's compiled program in a fragment shader. The program, its parameter
 // pool and the Lipschitz grid arrive in a trace bundle (GET /api/v1/scenes/{ref}/trace.json) and
 // live in textures; the node functions, the interpreter and the tracer itself are the server's
-// own GLSL (GET /api/v1/glsl/trace.glsl), after a prelude that reads those textures.
+// own GLSL (GET /api/v1/glsl/trace.glsl), after a prelude that reads those textures. The bundle's
+// `glsl_defines` leave out the interpreter's code for node types the program does not use, and
+// `program_glsl` is the program unrolled into straight-line GLSL (gpu/program_glsl.hpp).
 import { decodeBase64 } from './api.js';
 import { compileProgram, createPictureTarget, dataTexture, deletePictureTarget } from './gl.js';
 
@@ -14,12 +16,14 @@ void main() {
   gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
 }`;
 
-function prelude({ maxFields, maxFrames }) {
+function prelude({ maxFields, maxFrames, specialised, defines }) {
   return `#version 300 es
 precision highp float;
 precision highp int;
 precision highp usampler2D;
 precision highp sampler2D;
+${specialised ? '#define TERRAIN_SPECIALISED' : ''}
+${defines}
 #define TERRAIN_PRECISE
 #define TERRAIN_MAX_FIELDS ${maxFields}
 #define TERRAIN_MAX_FRAMES ${maxFrames}
@@ -72,23 +76,40 @@ void main() {
 }
 `;
 
+// What the shader is built from besides the shared GLSL, for a shader mode: the prelude's
+// defines (node types and fractal kinds used, and TERRAIN_SPECIALISED when unrolled) and the
+// unrolled evaluate_program that follows main.
+function shaderParts(bundle, mode) {
+  const unroll = typeof bundle.program_glsl === 'string' &&
+    (mode === 'unrolled' || (mode === 'automatic' && bundle.unroll_pays === true));
+  const defines = mode === 'interpreter' ? '' : bundle.glsl_defines ?? '';
+  return { specialised: unroll, defines, unrolled: unroll ? bundle.program_glsl : '' };
+}
+
 /// Sample spacing per metre of distance that matches one pixel (terrain::pixel_footprint).
 function pixelFootprint(tanHalf, height) {
   return Math.fround((2 * tanHalf) / height);
 }
 
 export class SceneView {
-  static create(gl, glsl, bundle) {
+  /// `mode` says how the tracer evaluates the program (gpu::ShaderMode): 'automatic' (the
+  /// default: unrolled where the server says unrolling pays, else pruned), 'pruned' (the
+  /// interpreter without the node types and fractal kinds the scene does not use), 'unrolled'
+  /// (the bundle's program_glsl) or 'interpreter'.
+  static create(gl, glsl, bundle, mode = 'automatic') {
     if (!gl.getExtension('EXT_color_buffer_float')) {
       throw new Error('This browser cannot render to float textures (EXT_color_buffer_float), which the viewer needs.');
     }
-    const source = prelude({ maxFields: bundle.stacks.fields, maxFrames: bundle.stacks.frames }) + glsl + MAIN;
+    const shader = shaderParts(bundle, mode);
+    const source = prelude({ maxFields: bundle.stacks.fields, maxFrames: bundle.stacks.frames, ...shader }) +
+      glsl + MAIN + shader.unrolled;
     const program = compileProgram(gl, VERTEX, source);
-    return new SceneView(gl, program, bundle);
+    return new SceneView(gl, program, bundle, mode);
   }
 
-  constructor(gl, program, bundle) {
+  constructor(gl, program, bundle, mode) {
     this.gl = gl;
+    this.mode = mode;
     this.program = program;
     this.uniforms = {};
     const count = gl.getProgramParameter(program, gl.ACTIVE_UNIFORMS);
@@ -118,12 +139,16 @@ export class SceneView {
     ];
   }
 
-  /// Shows another version of the scene: when the shader fits it (the same stack sizes) only
-  /// its data textures change, which is much quicker than compiling the tracer again. Returns
-  /// false when the bundle needs a new SceneView.
+  /// Shows another version of the scene: when the shader fits it (the same stack sizes, and the
+  /// same node types or unrolled program: only parameter values changed) only its data textures
+  /// change, which is much quicker than compiling the tracer again. Returns false when the
+  /// bundle needs a new SceneView.
   replaceBundle(bundle) {
     const { fields, frames } = this.bundle.stacks;
     if (bundle.stacks.fields !== fields || bundle.stacks.frames !== frames) return false;
+    const now = shaderParts(this.bundle, this.mode);
+    const next = shaderParts(bundle, this.mode);
+    if (next.defines !== now.defines || next.unrolled !== now.unrolled) return false;
     this.loadData(bundle);
     for (const target of Object.values(this.targets)) target.complete = target.camera = null;
     return true;

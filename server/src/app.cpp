@@ -16,6 +16,7 @@
 
 #include "gpu/backend.hpp"
 #include "gpu/evaluator.hpp"
+#include "gpu/program_glsl.hpp"
 #include "planet/continent_map.hpp"
 #include "planet/definition.hpp"
 #include "planet/tiles.hpp"
@@ -1997,31 +1998,37 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
     const terrain::Camera camera = terrain::default_camera(program, area, 640, 400);
     const terrain::Vec3 sun = terrain::sun_direction();
     const auto [fields, frames] = gpu::shader_stacks(program);
-    const json body{
-        {"scene_id", scene_id},
-        {"version", version},
-        {"hash", hash},
-        {"author", author},
-        {"created_ms", created_ms},
-        {"code",
-         terrain::base64(program.code.data(), program.code.size() * sizeof(terrain::Instruction))},
-        {"pool", terrain::base64(pool.data(), pool.size() * sizeof(float))},
-        {"bounds", terrain::base64(bounds.data(), bounds.size() * sizeof(float))},
-        {"stacks", {{"fields", fields}, {"frames", frames}}},
-        {"setup",
-         {{"area", {domain.area.lo.x, domain.area.lo.y, domain.area.hi.x, domain.area.hi.y}},
-          {"elevation", {domain.elevation.lo, domain.elevation.hi}},
-          {"epsilon", defaults.epsilon},
-          {"max_steps", defaults.max_steps},
-          {"initial_step", defaults.initial_step},
-          {"t_max", std::min(defaults.t_max, 4.0f * span + 1e4f)},
-          {"water_level", terrain::RenderOptions{}.water_level},
-          {"span", span},
-          {"sun", {sun.x, sun.y, sun.z}}}},
-        {"camera",
-         {{"eye", {camera.position.x, camera.position.y, camera.position.z}},
-          {"target", {camera.target.x, camera.target.y, camera.target.z}},
-          {"fov", camera.vertical_fov_degrees}}}};
+    // What the browser's tracer builds its shader from besides the shared GLSL: the node types
+    // and fractal kinds the program uses, the program unrolled, and whether unrolling pays
+    // (gpu/program_glsl.hpp, docs/client.md).
+    terrain::Result<std::string> program_glsl = gpu::specialised_program_glsl(program);
+    json body{{"scene_id", scene_id},
+              {"version", version},
+              {"hash", hash},
+              {"author", author},
+              {"created_ms", created_ms},
+              {"code", terrain::base64(program.code.data(),
+                                       program.code.size() * sizeof(terrain::Instruction))},
+              {"pool", terrain::base64(pool.data(), pool.size() * sizeof(float))},
+              {"bounds", terrain::base64(bounds.data(), bounds.size() * sizeof(float))},
+              {"stacks", {{"fields", fields}, {"frames", frames}}},
+              {"setup",
+               {{"area", {domain.area.lo.x, domain.area.lo.y, domain.area.hi.x, domain.area.hi.y}},
+                {"elevation", {domain.elevation.lo, domain.elevation.hi}},
+                {"epsilon", defaults.epsilon},
+                {"max_steps", defaults.max_steps},
+                {"initial_step", defaults.initial_step},
+                {"t_max", std::min(defaults.t_max, 4.0f * span + 1e4f)},
+                {"water_level", terrain::RenderOptions{}.water_level},
+                {"span", span},
+                {"sun", {sun.x, sun.y, sun.z}}}},
+              {"camera",
+               {{"eye", {camera.position.x, camera.position.y, camera.position.z}},
+                {"target", {camera.target.x, camera.target.y, camera.target.z}},
+                {"fov", camera.vertical_fov_degrees}}}};
+    if (program_glsl) body["program_glsl"] = *program_glsl;
+    body["glsl_defines"] = gpu::node_type_defines(program);
+    body["unroll_pays"] = gpu::unroll_pays(program);
     auto cached = std::make_shared<CachedProduct>();
     cached->body = body.dump();
     cached->media_type = "application/json";

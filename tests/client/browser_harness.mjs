@@ -38,10 +38,12 @@ export async function startServer(serverBinary, repoRoot, { writeToken = '' } = 
   return { port, stop: () => { server.kill('SIGTERM'); rmSync(data, { recursive: true, force: true }); } };
 }
 
-export function launchBrowser() {
+/// Debian's Chromium, headless; WebGL2 on SwiftShader unless `args` says otherwise (a machine
+/// with a GPU: bench/browser_frames.mjs --browser-arg).
+export function launchBrowser(args = ['--use-angle=swiftshader', '--enable-unsafe-swiftshader']) {
   return chromium.launch({
     executablePath: '/usr/bin/chromium',
-    args: ['--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--no-sandbox', '--disable-gpu-sandbox'],
+    args: [...args, '--no-sandbox', '--disable-gpu-sandbox'],
   });
 }
 

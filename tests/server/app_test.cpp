@@ -133,6 +133,24 @@ TEST_F(AppTest, GeneratedTilesAreCachedAndIdentical) {
   EXPECT_GE(app_->cache().hits(), 1);
 }
 
+// The trace bundle carries what the browser builds its tracer from: the node types the program
+// uses and the program unrolled into GLSL (gpu/program_glsl.hpp).
+TEST_F(AppTest, TraceBundleNamesTheProgramsNodeTypesAndItsUnrolledGlsl) {
+  const Response r = get("/api/v1/scenes/craters@1/trace.json");
+  ASSERT_EQ(r.result(), http::status::ok) << r.body().view();
+  const auto bundle = nlohmann::json::parse(r.body().view());
+  const std::string defines = bundle.at("glsl_defines");
+  EXPECT_NE(defines.find("#define TERRAIN_USES_CONTOUR 1"), std::string::npos) << defines;
+  EXPECT_NE(defines.find("#define TERRAIN_USES_CURVE 0"), std::string::npos) << defines;
+  const std::string unrolled = bundle.at("program_glsl");
+  EXPECT_NE(unrolled.find("Field evaluate_program(vec2 p0, float s0)"), std::string::npos);
+  EXPECT_NE(unrolled.find("contour_leaf("), std::string::npos);
+  EXPECT_EQ(bundle.at("unroll_pays"), true);  // 15 leaves
+  const Response large = get("/api/v1/scenes/winding-road@1/trace.json");
+  ASSERT_EQ(large.result(), http::status::ok);
+  EXPECT_EQ(nlohmann::json::parse(large.body().view()).at("unroll_pays"), false);  // 106 leaves
+}
+
 // A tile of an immutable URL asked for again is answered by a remembered route, without parsing,
 // resolving or building its key: with the very status, fields and bytes of the full route, for
 // GET and HEAD, HTTP/1.0 and 1.1, revalidation, gzip and CORS, and one cache hit counted per
