@@ -5,7 +5,7 @@
 // `glsl_defines` leave out the interpreter's code for node types the program does not use, and
 // `program_glsl` is the program unrolled into straight-line GLSL (gpu/program_glsl.hpp).
 import { decodeBase64 } from './api.js';
-import { compileProgram, createPictureTarget, dataTexture, deletePictureTarget } from './gl.js';
+import { ShaderError, compileProgram, createPictureTarget, dataTexture, deletePictureTarget } from './gl.js';
 
 const TEXTURE_WIDTH = 1024;  // texels per row of every data texture (a power of two: shifts)
 
@@ -100,11 +100,20 @@ export class SceneView {
     if (!gl.getExtension('EXT_color_buffer_float')) {
       throw new Error('This browser cannot render to float textures (EXT_color_buffer_float), which the viewer needs.');
     }
-    const shader = shaderParts(bundle, mode);
-    const source = prelude({ maxFields: bundle.stacks.fields, maxFrames: bundle.stacks.frames, ...shader }) +
-      glsl + MAIN + shader.unrolled;
-    const program = compileProgram(gl, VERTEX, source);
-    return new SceneView(gl, program, bundle, mode);
+    const build = (m) => {
+      const shader = shaderParts(bundle, m);
+      const source = prelude({ maxFields: bundle.stacks.fields, maxFrames: bundle.stacks.frames, ...shader }) +
+        glsl + MAIN + shader.unrolled;
+      return compileProgram(gl, VERTEX, source);
+    };
+    try {
+      return new SceneView(gl, build(mode), bundle, mode);
+    } catch (error) {
+      // A driver may refuse a long unrolled shader; the pruned interpreter computes the same.
+      if (!(error instanceof ShaderError) || mode !== 'automatic' || !shaderParts(bundle, mode).specialised) throw error;
+      console.warn(`The unrolled tracer did not compile here; tracing with the interpreter. ${error.message.slice(0, 200)}`);
+      return new SceneView(gl, build('pruned'), bundle, 'pruned');
+    }
   }
 
   constructor(gl, program, bundle, mode) {

@@ -113,6 +113,28 @@ try {
     const noGlMessage = await noGl.evaluate(() => window.terrainViewer.state.error);
     checks.check(/WebGL2/.test(noGlMessage), `a browser without WebGL2 is told so (${noGlMessage})`);
     await noGl.close();
+
+    // A driver that refuses the unrolled tracer (here: a bundle whose program_glsl does not
+    // compile): the viewer traces the same picture with the pruned interpreter instead.
+    const butte = (await (await fetch(`${base}/api/v1/scenes/butte@1/trace.json`)).json());
+    const refused = await openViewer(browser, `${base}/#scene=butte&eye=${butte.camera.eye.join(',')}` +
+      `&target=${butte.camera.target.join(',')}&fov=${butte.camera.fov}`, WIDTH, HEIGHT, {
+      beforeLoad: (page) => page.route('**/trace.json', async (route) => {
+        const bundle = await (await route.fetch()).json();
+        route.fulfill({ json: { ...bundle, unroll_pays: true, program_glsl: 'Field evaluate_program(vec2 p0, float s0) { no_such_function(); }' } });
+      }),
+    });
+    const refusedError = await waitIdle(refused.page, 300000);
+    const fallback = await refused.page.evaluate(() => ({
+      mode: window.terrainViewer.state.view.mode, frame: window.terrainViewer.capture(),
+    }));
+    const golden = await decodePng(refused.page, readFileSync(join(repoRoot, 'tests/client/golden/butte.png')));
+    const vsFallback = comparePixels(fallback.frame.rgba, golden.rgba, PIXEL_TOLERANCE);
+    checks.check(!refusedError && fallback.mode === 'pruned' && vsFallback.share >= PIXEL_SHARE &&
+      refused.consoleErrors.length === 0,
+    `a tracer that does not compile unrolled falls back to the interpreter (mode ${fallback.mode}, ` +
+      `${(vsFallback.share * 100).toFixed(2)}% of pixels as the golden, errors: ${refusedError ?? 'none'} ${refused.consoleErrors.join(' | ')})`);
+    await refused.page.close();
   }
 } finally {
   await browser.close();
