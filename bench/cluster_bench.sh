@@ -8,13 +8,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-5}"
-for p in wrk nginx-light redis-server curl; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ -n "${missing[*]:-}" ]; then
-  sudo_cmd=""; [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
-  $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" > /dev/null
-fi
+scripts/install-deps.sh --tests > /dev/null  # wrk, nginx, Redis, curl: the test servers
 scripts/build.sh release > /dev/null
 
 work="$(mktemp -d)"

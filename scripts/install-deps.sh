@@ -3,7 +3,7 @@
 # packages that are missing, so a second run costs a dpkg query. --tests adds what only the test
 # suite needs (the browser the viewer's tests drive, and the servers the store, cache and cluster
 # tests start throwaway instances of: PostgreSQL, Redis, nginx; the build needs only their
-# client libraries).
+# client libraries), and wrk and curl, which the HTTP benchmarks (bench/*.sh) drive them with.
 set -euo pipefail
 
 packages=(
@@ -15,7 +15,7 @@ packages=(
   gdal-bin nodejs clang libclang-rt-14-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
 )
-[ "${1:-}" = "--tests" ] && packages+=(chromium postgresql redis-server nginx-light wrk)
+[ "${1:-}" = "--tests" ] && packages+=(chromium postgresql redis-server nginx-light wrk curl)
 
 missing=()
 for p in "${packages[@]}"; do

@@ -14,7 +14,6 @@
 
 #include "glsl_sources.hpp"
 #include "gpu/program_glsl.hpp"
-#include "terrain/node.hpp"
 #include "terrain/sphere_trace.hpp"
 
 namespace gpu {
@@ -50,13 +49,6 @@ terrain::Status gl_check(const char* what) {
   }
   if (first != GL_NO_ERROR) return Error{std::string(what) + ": " + gl_error_text(first), ""};
   return terrain::Ok{};
-}
-
-std::string type_name(std::uint16_t id) {
-  for (const terrain::NodeType* t : terrain::node_types()) {
-    if (t->id == id) return std::string(t->name);
-  }
-  return "unknown";
 }
 
 // Shader stack sizes are rounded up so programs of similar depth share one compiled shader.
@@ -337,20 +329,7 @@ std::string GpuEvaluator::device_name() const {
 }
 
 terrain::Status GpuEvaluator::supports(const terrain::Program& program) {
-  for (std::size_t pc = 0; pc < program.code.size(); ++pc) {
-    const terrain::Instruction& ins = program.code[pc];
-    if (static_cast<std::uint16_t>(ins.op) > static_cast<std::uint16_t>(Op::warp_end)) {
-      return Error{"instruction " + std::to_string(pc) + " has an unknown op", ""};
-    }
-    if (!shader_implements(ins.op, ins.type)) {
-      return Error{"the GPU evaluator does not implement node type '" + type_name(ins.type) +
-                       "' (id " + std::to_string(ins.type) + ", node " + std::to_string(ins.node) +
-                       "); evaluate this program on the CPU",
-                   ""};
-    }
-  }
-  if (program.code.empty()) return Error{"the program is empty", ""};
-  return terrain::Ok{};
+  return shaders_implement(program);
 }
 
 terrain::Status GpuEvaluator::evaluate(const terrain::Program& program, std::span<const float> x,

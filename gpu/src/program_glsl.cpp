@@ -38,6 +38,13 @@ std::string_view type_name(std::uint16_t id) {
   return node ? node->name : std::string_view("unknown");
 }
 
+Error unsupported_node(const terrain::Instruction& ins) {
+  return Error{"the GPU shaders do not implement node type '" + std::string(type_name(ins.type)) +
+                   "' (id " + std::to_string(ins.type) + ", node " + std::to_string(ins.node) +
+                   "); evaluate this program on the CPU",
+               ""};
+}
+
 std::string u(std::uint32_t v) {
   return std::to_string(v) + "u";
 }
@@ -173,13 +180,7 @@ class Emitter {
     body += text;
     body += '\n';
   }
-  Error unsupported(std::size_t pc) const {
-    const terrain::Instruction& ins = code_[pc];
-    return Error{"the GPU shaders do not implement node type '" + std::string(type_name(ins.type)) +
-                     "' (id " + std::to_string(ins.type) + ", node " + std::to_string(ins.node) +
-                     "); evaluate this program on the CPU",
-                 ""};
-  }
+  Error unsupported(std::size_t pc) const { return unsupported_node(code_[pc]); }
   Error malformed(std::size_t pc, const char* what) const {
     return Error{"instruction " + std::to_string(pc) + " " + what, ""};
   }
@@ -262,8 +263,20 @@ std::string node_type_defines(const terrain::Program& program) {
   return out;
 }
 
-terrain::Result<std::string> specialised_program_glsl(const terrain::Program& program) {
+terrain::Status shaders_implement(const terrain::Program& program) {
+  for (std::size_t pc = 0; pc < program.code.size(); ++pc) {
+    const terrain::Instruction& ins = program.code[pc];
+    if (static_cast<std::uint16_t>(ins.op) > static_cast<std::uint16_t>(Op::warp_end)) {
+      return Error{"instruction " + std::to_string(pc) + " has an unknown op", ""};
+    }
+    if (!shader_implements(ins.op, ins.type)) return unsupported_node(ins);
+  }
   if (program.code.empty()) return Error{"the program is empty", ""};
+  return terrain::Ok{};
+}
+
+terrain::Result<std::string> specialised_program_glsl(const terrain::Program& program) {
+  if (terrain::Status s = shaders_implement(program); !s) return s.error();
   Emitter emitter(program);
   terrain::Result<int> depth = emitter.range(0, program.code.size(), 0, 0, 0);
   if (!depth) return depth.error();

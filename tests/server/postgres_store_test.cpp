@@ -11,6 +11,7 @@
 
 #include "postgres_cluster.hpp"
 #include "server/postgres_store.hpp"
+#include "store_fixtures.hpp"
 
 namespace server {
 namespace {
@@ -30,14 +31,7 @@ std::unique_ptr<Store> open_or_die(const PostgresOptions& options) {
   return std::move(s).value();
 }
 
-SceneVersion body(const std::string& json) {
-  SceneVersion v;
-  v.name = "n";
-  v.canonical_json = json;
-  v.hash = content_hash(json.data(), json.size());
-  v.author = "test";
-  return v;
-}
+using store_fixtures::body;
 
 TEST(PostgresStore, WritersInTwoStoresGetDistinctConsecutiveVersions) {
   const std::string url = pg_test::shared_cluster().create_database();

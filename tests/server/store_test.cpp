@@ -10,11 +10,13 @@
 #include "postgres_cluster.hpp"
 #include "server/config.hpp"
 #include "server/store.hpp"
+#include "store_fixtures.hpp"
 
 namespace server {
 namespace {
 
 namespace fs = std::filesystem;
+using store_fixtures::body;
 
 class StoreTest : public ::testing::TestWithParam<std::string> {
  protected:
@@ -40,14 +42,6 @@ class StoreTest : public ::testing::TestWithParam<std::string> {
     StoreResult<std::unique_ptr<Store>> s = open_store(config_);
     if (!s) throw std::runtime_error(s.error().message);
     return std::move(s).value();
-  }
-  static SceneVersion body(const std::string& json) {
-    SceneVersion v;
-    v.name = "n";
-    v.canonical_json = json;
-    v.hash = content_hash(json.data(), json.size());
-    v.author = "test";
-    return v;
   }
 
   Config config_;

@@ -20,6 +20,10 @@ namespace gpu {
 /// Whether the shaders implement node type `type` for instructions of kind `op`.
 bool shader_implements(terrain::Op op, std::uint16_t type);
 
+/// Whether the shaders can run the program: the error names the first instruction they cannot
+/// (an unknown op, or a node type they do not implement), or says the program is empty.
+terrain::Status shaders_implement(const terrain::Program& program);
+
 /// Whether unrolling this program pays: it does for small programs (on llvmpipe 5–13 times the
 /// pruned interpreter's speed on the small examples), but every leaf and warp is inlined, and
 /// drivers' compile time grows faster than the code (llvmpipe: 10 warped, transformed discs
