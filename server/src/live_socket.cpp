@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <deque>
+#include <mutex>
 
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
@@ -29,8 +30,13 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
     wake_.expires_at(asio::steady_timer::time_point::max());
   }
 
-  // Any thread: counts the message against the connection's backlog, then hands it to the
+  // Any thread: counts the message against the connection's backlog, queues it and wakes the
   // connection's thread. A connection that owes too much is cut instead of buffering more.
+  //
+  // The message joins the queue here, in call order, rather than in a handler posted to the
+  // connection's thread: a single-threaded io_context runs handlers that its own thread posted
+  // only after the running handler returns, so a version posted by another connection's thread
+  // in the meantime would overtake them (live_test's ConcurrentEditsConvergeInOneOrderEverywhere).
   void deliver(std::shared_ptr<const std::string> message) override {
     const auto size = static_cast<std::int64_t>(message->size());
     const std::int64_t bytes = owed_bytes_.fetch_add(size) + size;
@@ -45,16 +51,17 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
       }
       return;
     }
-    asio::post(ws_.get_executor(), [self = shared_from_this(), m = std::move(message)]() mutable {
-      self->queue_.push_back(std::move(m));
-      self->wake_.cancel_one();
-    });
+    {
+      std::lock_guard lock(queue_mutex_);
+      queue_.push_back(std::move(message));
+    }
+    asio::post(ws_.get_executor(), [self = shared_from_this()] { self->wake_.cancel_one(); });
   }
 
   websocket::stream<tcp::socket>& ws() { return ws_; }
 
   ~LiveSocket() override {
-    // Messages posted but never queued (the connection ended first) are owed no more.
+    // Messages queued after the writer ended (the connection went first) are owed no more.
     metrics_.live_backlog_bytes.fetch_sub(owed_bytes_.load());
   }
   bool subscribed = false;  ///< the connection's thread only
@@ -64,22 +71,31 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
   // the session, which therefore outlives every operation the loop has started.
   static awaitable<void> write_loop(std::shared_ptr<LiveSocket> self) {
     while (self->open_) {
-      if (self->queue_.empty()) {
+      std::shared_ptr<const std::string> message = self->take();
+      if (!message) {
+        // A message queued after take() also posts a wake-up, which runs on this thread after
+        // the wait below has started: no wake-up is lost.
         boost::system::error_code ignored;
         co_await self->wake_.async_wait(asio::redirect_error(use_awaitable, ignored));
         continue;
       }
-      std::shared_ptr<const std::string> message = self->queue_.front();
       boost::system::error_code ec;
       self->ws_.text(true);
       co_await self->ws_.async_write(asio::buffer(*message),
                                      asio::redirect_error(use_awaitable, ec));
-      self->queue_.pop_front();
       self->forget(*message);
       if (ec) break;
     }
-    for (const auto& left : self->queue_) self->forget(*left);
-    self->queue_.clear();
+    while (auto left = self->take()) self->forget(*left);
+  }
+
+  // The oldest queued message, or null.
+  std::shared_ptr<const std::string> take() {
+    std::lock_guard lock(queue_mutex_);
+    if (queue_.empty()) return nullptr;
+    std::shared_ptr<const std::string> message = std::move(queue_.front());
+    queue_.pop_front();
+    return message;
   }
 
   // A message left the backlog (sent, or dropped with the connection).
@@ -130,8 +146,9 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
  private:
   Metrics& metrics_;
   websocket::stream<tcp::socket> ws_;
-  asio::steady_timer wake_;                               // cancelled to wake the writer
-  std::deque<std::shared_ptr<const std::string>> queue_;  // the connection's thread only
+  asio::steady_timer wake_;  // cancelled to wake the writer
+  std::mutex queue_mutex_;
+  std::deque<std::shared_ptr<const std::string>> queue_;  // guarded by queue_mutex_
   std::atomic<std::int64_t> owed_bytes_{0};
   std::atomic<int> owed_messages_{0};
   std::atomic<bool> overflowed_{false};
