@@ -21,20 +21,13 @@ using terrain::NodeCategory;
 constexpr std::string_view kShaderNodes[] = {"disc", "curve", "contour",   "image", "replace",
                                              "add",  "lod",   "transform", "warp"};
 
-const terrain::NodeType* find_type(std::uint16_t id) {
-  for (const terrain::NodeType* t : terrain::node_types()) {
-    if (t->id == id) return t;
-  }
-  return nullptr;
-}
-
 bool in_shaders(const terrain::NodeType& node) {
   return std::find(std::begin(kShaderNodes), std::end(kShaderNodes), node.name) !=
          std::end(kShaderNodes);
 }
 
 std::string_view type_name(std::uint16_t id) {
-  const terrain::NodeType* node = find_type(id);
+  const terrain::NodeType* node = terrain::node_type_by_id(id);
   return node ? node->name : std::string_view("unknown");
 }
 
@@ -191,7 +184,7 @@ class Emitter {
 }  // namespace
 
 bool shader_implements(Op op, std::uint16_t type) {
-  const terrain::NodeType* node = find_type(type);
+  const terrain::NodeType* node = terrain::node_type_by_id(type);
   switch (op) {
     case Op::leaf:
       return node && node->category == NodeCategory::primitive && in_shaders(*node);

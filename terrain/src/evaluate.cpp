@@ -1,8 +1,8 @@
 #include "terrain/evaluate.hpp"
 
 #include <algorithm>
-#include <array>
 #include <atomic>
+#include <cassert>
 #include <cmath>
 #include <thread>
 
@@ -11,15 +11,6 @@
 
 namespace terrain {
 namespace {
-
-const NodeType* type_by_id(std::uint16_t id) {
-  static const std::array<const NodeType*, 256> table = [] {
-    std::array<const NodeType*, 256> t{};
-    for (const NodeType* type : node_types()) t[type->id] = type;
-    return t;
-  }();
-  return table[id & 0xff];
-}
 
 NodeBounds no_weight_bounds() {
   return NodeBounds{};
@@ -83,7 +74,10 @@ Evaluator::Evaluator(const Program& program)
   scratch_->frames.resize(static_cast<std::size_t>(program.max_frame_depth) + 1);
   scratch_->jacobians.resize(static_cast<std::size_t>(program.max_frame_depth) + 1);
   scratch_->types.reserve(program.code.size());
-  for (const Instruction& ins : program.code) scratch_->types.push_back(type_by_id(ins.type));
+  for (const Instruction& ins : program.code) {
+    scratch_->types.push_back(node_type_by_id(ins.type));
+    assert(scratch_->types.back() != nullptr && "programs come from compile(): known types only");
+  }
 }
 
 Evaluator::~Evaluator() = default;

@@ -27,6 +27,15 @@ std::span<const NodeType* const> node_types() {
   return kTypes;
 }
 
+const NodeType* node_type_by_id(std::uint16_t id) {
+  static const std::array<const NodeType*, 256> kById = [] {
+    std::array<const NodeType*, 256> table{};
+    for (const NodeType* type : node_types()) table[type->id] = type;
+    return table;
+  }();
+  return id < kById.size() ? kById[id] : nullptr;
+}
+
 const NodeType* find_node_type(std::string_view name) {
   for (const NodeType* type : node_types()) {
     if (type->name == name) return type;

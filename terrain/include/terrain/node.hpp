@@ -96,6 +96,9 @@ struct NodeType {
 std::span<const NodeType* const> node_types();
 /// The node type with this JSON name, or nullptr.
 const NodeType* find_node_type(std::string_view name);
+/// The node type with this id (an instruction's `type`), or nullptr. A table lookup: the
+/// evaluators call it per instruction.
+const NodeType* node_type_by_id(std::uint16_t id);
 
 /// A node of a parsed scene tree. Subtrees may be shared (instancing): the tree is a DAG.
 struct Node {
