@@ -1,5 +1,6 @@
 #include "planet/definition.hpp"
 
+#include "terrain/json_text.hpp"
 #include "terrain/scene.hpp"
 
 #include <algorithm>
@@ -192,9 +193,9 @@ Result<PlanetDefinition> parse_planet(const nlohmann::json& document) {
 }
 
 Result<PlanetDefinition> parse_planet_text(std::string_view text) {
-  nlohmann::json document = nlohmann::json::parse(text, nullptr, false);
-  if (document.is_discarded()) return Error{"malformed JSON", ""};
-  return parse_planet(document);
+  Result<nlohmann::json> document = terrain::parse_json_text(text, "the planet definition");
+  if (!document) return document.error();
+  return parse_planet(*document);
 }
 
 Result<PlanetDefinition> load_planet_file(const std::string& path) {

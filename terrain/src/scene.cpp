@@ -11,6 +11,7 @@
 
 #include "field_reader.hpp"
 #include "terrain/evaluate.hpp"
+#include "terrain/json_text.hpp"
 #include "terrain/noise.hpp"
 
 namespace terrain {
@@ -281,17 +282,9 @@ Result<Scene> load_scene_file(const std::string& path, ParseOptions options) {
 }
 
 Result<Scene> parse_scene_text(std::string_view text, const ParseOptions& options) {
-  nlohmann::json document = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (document.is_discarded()) {
-    // Parse again with exceptions only to learn where it failed (never escapes).
-    try {
-      const nlohmann::json ignored = nlohmann::json::parse(text);
-    } catch (const nlohmann::json::exception& e) {
-      return Error{std::string("the scene is not valid JSON: ") + e.what(), ""};
-    }
-    return Error{"the scene is not valid JSON", ""};
-  }
-  return parse_scene(document, options);
+  Result<nlohmann::json> document = parse_json_text(text, "the scene");
+  if (!document) return document.error();
+  return parse_scene(*document, options);
 }
 
 }  // namespace terrain

@@ -289,12 +289,28 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
   Evaluator grid_evaluator(program);
   const LipschitzGrid bounds(grid_evaluator, area);
   if (trace.accelerated && trace.bounds == nullptr) trace.bounds = &bounds;
+  std::atomic<bool> out_of_budget{false};
   auto worker = [&] {
     Evaluator evaluator(program);
+    TraceOptions ray_trace = trace;
     for (int y = next_row.fetch_add(1); y < camera.height; y = next_row.fetch_add(1)) {
       for (int x = 0; x < camera.width; ++x) {
+        if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
+          next_row = camera.height;  // the other threads stop at their next row
+          break;
+        }
+        if (options.step_budget > 0) {
+          // No ray may take more steps than the picture has left.
+          const std::int64_t left = options.step_budget - steps.load();
+          if (left <= 0) {
+            out_of_budget = true;
+            next_row = camera.height;
+            break;
+          }
+          ray_trace.max_steps = static_cast<int>(std::min<std::int64_t>(trace.max_steps, left));
+        }
         const Ray ray = camera.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
-        const TraceResult hit = sphere_trace(evaluator, domain, ray, trace);
+        const TraceResult hit = sphere_trace(evaluator, domain, ray, ray_trace);
         steps += hit.steps;
         Rgb color = sky(ray);
         const std::size_t at = static_cast<std::size_t>(y * camera.width + x);
@@ -321,7 +337,10 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
   if (options.progress) {
     // The calling thread reports progress while the others trace.
     std::thread last(worker);
-    while (rows_done.load() < camera.height) {
+    auto stopped = [&] {
+      return out_of_budget.load() || (options.cancel != nullptr && options.cancel->load());
+    };
+    while (rows_done.load() < camera.height && !stopped()) {
       options.progress(static_cast<float>(rows_done.load()) / static_cast<float>(camera.height));
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
@@ -332,6 +351,11 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
   }
   for (std::thread& t : threads) t.join();
   picture.total_steps = steps.load();
+  if (options.cancel != nullptr && options.cancel->load()) {
+    picture.stopped = Picture::Stop::cancelled;
+  } else if (out_of_budget) {
+    picture.stopped = Picture::Stop::budget;
+  }
   return picture;
 }
 

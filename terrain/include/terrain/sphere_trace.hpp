@@ -4,6 +4,7 @@
 // how many steps it took; reference pictures and tests use them.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -107,6 +108,8 @@ struct Picture {
   std::vector<std::uint8_t> rgb;
   std::vector<float> depth;  ///< ray distance, or -1 where the ray missed
   std::int64_t total_steps = 0;
+  /// Why the picture is not complete: it ran out of step_budget, or was cancelled.
+  enum class Stop { none, budget, cancelled } stopped = Stop::none;
 };
 
 struct RenderOptions {
@@ -115,6 +118,11 @@ struct RenderOptions {
   int threads = 0;
   /// Called with the fraction done (0..1) from the calling thread; may be empty.
   std::function<void(float)> progress;
+  /// At most this many sphere-tracing steps for the whole picture (0: no limit). A server's
+  /// cost limit becomes a bound on the work, whatever the camera and the terrain's bounds.
+  std::int64_t step_budget = 0;
+  /// When set and true, the picture stops at the next pixel (its client has gone).
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 Picture render(const Program& program, const Box2& area, const Camera& camera,
