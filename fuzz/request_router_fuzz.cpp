@@ -1,6 +1,8 @@
 // libFuzzer target: the request handler's parsing and routing (targets, queries, tile
 // addresses, headers) must answer every request with a response or deferred work, never crash.
-// Deferred generation is not run: the router's job is to refuse bad input before work.
+// Deferred generation is not run: the router's job is to refuse bad input before work. Writes
+// are (they parse, compile and store on the pool), and the example scenes' first versions are
+// loaded at start, so that their product routes are reached without deferral.
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -22,6 +24,12 @@ server::App& app() {
     auto store = server::open_sqlite_store(config.data_dir);
     auto* a = new server::App(config, std::move(store).value());
     (void)a->seed_examples();
+    for (const char* id :
+         {"butte", "craters", "hills-river", "lake-dunes", "mountain-range", "winding-road"}) {
+      server::Request load{boost::beast::http::verb::get,
+                           std::string("/api/v1/scenes/") + id + "@1", 11};
+      (void)server::settle(*a, load);
+    }
     return a;
   }();
   return *instance;
@@ -32,7 +40,7 @@ server::App& app() {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 2) return 0;
   namespace http = boost::beast::http;
-  static const http::verb verbs[] = {http::verb::get, http::verb::head, http::verb::put,
+  static const http::verb verbs[] = {http::verb::get,  http::verb::head,    http::verb::put,
                                      http::verb::post, http::verb::options, http::verb::delete_};
   const http::verb verb = verbs[data[0] % 6];
   std::string text(reinterpret_cast<const char*>(data + 1), size - 1);
@@ -47,6 +55,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   request.body() = b == std::string::npos ? "" : rest.substr(b + 1);
   request.prepare_payload();
   server::Outcome outcome = app().handle(request);
-  (void)outcome;
+  if (auto* deferred = std::get_if<server::Deferred>(&outcome)) {
+    // Writes and version loads are what the pool parses and compiles; products are not made.
+    if (deferred->prepare) {
+      (void)deferred->prepare();
+    } else if (verb == http::verb::put || verb == http::verb::post) {
+      (void)deferred->work();
+    }
+  }
   return 0;
 }

@@ -22,6 +22,7 @@
 #include "planet/tiles.hpp"
 #include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
+#include "terrain/json_text.hpp"
 #include "terrain/program.hpp"
 #include "terrain/sphere_trace.hpp"
 #include "terrain/tile_products.hpp"
@@ -29,6 +30,11 @@
 namespace server {
 
 std::string_view openapi_document();  // generated from server/resources/openapi.json
+
+nlohmann::json detail::parse_bounded_json(std::string_view text) {
+  terrain::Result<nlohmann::json> parsed = terrain::parse_json_text(text, "stored JSON");
+  return parsed ? std::move(parsed).value() : nlohmann::json(nlohmann::json::value_t::discarded);
+}
 
 bool detail::valid_id(std::string_view id) {
   if (id.empty() || id.size() > 64) return false;
@@ -468,13 +474,54 @@ Response product_response(const ReplyContext& c,
 }
 }  // namespace
 
+std::string escape_invalid_utf8(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto lead = static_cast<unsigned char>(text[i]);
+    // The length of a well-formed sequence starting here (RFC 3629), or 0.
+    std::size_t length = 0;
+    if (lead < 0x80) {
+      length = 1;
+    } else if (lead >= 0xc2 && lead <= 0xf4) {
+      length = lead < 0xe0 ? 2 : lead < 0xf0 ? 3 : 4;
+      if (i + length > text.size()) length = 0;
+      for (std::size_t k = 1; k < length; ++k) {
+        if ((static_cast<unsigned char>(text[i + k]) & 0xc0) != 0x80) length = 0;
+      }
+      if (length >= 3) {
+        const auto second = static_cast<unsigned char>(text[i + 1]);
+        // Overlong forms, UTF-16 surrogates and code points above U+10FFFF.
+        if ((lead == 0xe0 && second < 0xa0) || (lead == 0xed && second >= 0xa0) ||
+            (lead == 0xf0 && second < 0x90) || (lead == 0xf4 && second >= 0x90)) {
+          length = 0;
+        }
+      }
+    }
+    if (length == 0) {
+      static constexpr char kHex[] = "0123456789ABCDEF";
+      out += "\\x";
+      out += kHex[lead >> 4];
+      out += kHex[lead & 15];
+      ++i;
+    } else {
+      out.append(text.substr(i, length));
+      i += length;
+    }
+  }
+  return out;
+}
+
 Response problem(const Request& request, http::status status, std::string_view title,
                  std::string_view detail, std::string_view pointer) {
+  // Details echo what the client sent (a parser's message quotes the bad byte): bytes that are
+  // not UTF-8 are written as \xHH so that the answer is JSON at all.
   json body{{"type", "about:blank"},
             {"title", title},
             {"status", static_cast<int>(status)},
-            {"detail", detail}};
-  if (!pointer.empty()) body["pointer"] = pointer;
+            {"detail", escape_invalid_utf8(detail)}};
+  if (!pointer.empty()) body["pointer"] = escape_invalid_utf8(pointer);
   Response r = make_response(request, status, body.dump(), "application/problem+json");
   r.set(http::field::cache_control, "no-store");
   return r;
@@ -483,7 +530,9 @@ Response problem(const Request& request, http::status status, std::string_view t
 // JSON answers are gzipped when the client accepts it and the body is worth compressing.
 Response detail::json_response(const Request& request, http::status status, const json& body,
                                std::string_view media_type) {
-  std::string text = body.dump();
+  // A string that is not UTF-8 is replaced (U+FFFD) rather than thrown about: every string
+  // that reaches an answer should have been checked, but an answer must never fail.
+  std::string text = body.dump(-1, ' ', false, json::error_handler_t::replace);
   Response r = make_response(request, status, "", media_type);
   if (accepts_gzip(request) && text.size() > 1024) {
     auto packed = terrain::gzip_compress(std::string_view(text), 6);
@@ -762,13 +811,35 @@ Outcome App::route(const Request& request, const Target& target) {
     if (s.size() >= 3 && s[2] == "scenes") {
       if (s.size() == 3) {
         if (read) return list_scenes(request);
-        if (method == http::verb::post) return create_scene(request, target);
+        if (method == http::verb::post) {
+          return off_io_thread(request, [this, target](const Request& r) -> Response {
+            return create_scene(r, target);
+          });
+        }
         return not_allowed("GET, HEAD, POST");
       }
       const std::string& ref = s[3];
+      // Parsing and compiling a version (decoding its images) is work for the pool, not for an
+      // I/O thread: a read of a version not loaded yet goes there whole, once.
+      const bool loads = read && (s.size() == 4 || (s[4] != "versions" && s[4] != "live"));
+      if (loads && !is_loaded(ref)) {
+        Deferred load;
+        load.prepare = [this, copy = std::make_shared<const Request>(request),
+                        ref]() -> std::optional<Response> {
+          auto loaded = resolve(*copy, ref);
+          if (loaded) return std::nullopt;
+          Response refusal = loaded.error();
+          add_cors(*copy, refusal);
+          return refusal;
+        };
+        return load;
+      }
       if (s.size() == 4) {
         if (read) return get_scene(request, ref);
-        if (method == http::verb::put) return put_scene(request, ref);
+        if (method == http::verb::put) {
+          return off_io_thread(
+              request, [this, ref](const Request& r) -> Response { return put_scene(r, ref); });
+        }
         return not_allowed("GET, HEAD, PUT");
       }
       if (s.size() == 5 && s[4] == "versions") {
@@ -785,7 +856,8 @@ Outcome App::route(const Request& request, const Target& target) {
                              "the live channel is a WebSocket: connect with Upgrade: websocket "
                              "(docs/live.md)");
         r.set(http::field::upgrade, "websocket");
-        r.set(http::field::connection, "Upgrade");
+        // The offer to upgrade, and still a close where the client asked for one.
+        r.set(http::field::connection, request.keep_alive() ? "Upgrade" : "Upgrade, close");
         return r;
       }
       if (!read) return not_allowed("GET, HEAD");
@@ -829,6 +901,88 @@ Outcome App::route(const Request& request, const Target& target) {
                  "no route for " + std::string(request.target()));
 }
 
+terrain::Result<std::string, Response> App::public_origin(const Request& request) const {
+  if (!config_.public_url.empty()) {
+    std::string_view base = config_.public_url;
+    while (base.ends_with('/')) base.remove_suffix(1);
+    return std::string(base);
+  }
+  const auto host = request.find(http::field::host);
+  if (host == request.end()) return std::string();  // HTTP/1.0: URLs relative to the server
+  if (request.count(http::field::host) > 1) {       // RFC 9112 §3.2
+    return problem(request, http::status::bad_request, "Bad Host header",
+                   "a request carries one Host header", "/headers/host");
+  }
+  // A host name, IPv4 or [IPv6] address, and an optional port: nothing that could lead a
+  // client elsewhere than this server's own name (no user info, path, or script).
+  const std::string_view value(host->value().data(), host->value().size());
+  std::string_view name = value;
+  if (const std::size_t colon = value.rfind(':');
+      colon != std::string_view::npos && value.find(']', colon) == std::string_view::npos) {
+    const std::string_view port = value.substr(colon + 1);
+    const auto number = parse_integer<int>(port);
+    if (port.empty() || port.size() > 5 || !number || *number < 1 || *number > 65535) {
+      name = {};
+    } else {
+      name = value.substr(0, colon);
+    }
+  }
+  const bool bracketed = name.size() > 2 && name.front() == '[' && name.back() == ']';
+  const std::string_view allowed =
+      bracketed ? "0123456789abcdefABCDEF:."
+                : "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789.-";
+  const std::string_view inner = bracketed ? name.substr(1, name.size() - 2) : name;
+  if (inner.empty() || value.size() > 255 ||
+      inner.find_first_not_of(allowed) != std::string_view::npos) {
+    return problem(request, http::status::bad_request, "Bad Host header",
+                   "Host must be a host name or address with an optional port (or set "
+                   "server.public_url)",
+                   "/headers/host");
+  }
+  return "http://" + std::string(value);
+}
+
+App::BodyPolicy App::body_policy(http::verb method, std::string_view target) const {
+  std::string_view path = target.substr(0, target.find('?'));
+  while (path.size() > 1 && path.back() == '/') path.remove_suffix(1);
+  // Percent-encoded ids reach the same routes: the checks below only look at the fixed parts.
+  if (method == http::verb::post && path == "/api/v1/images") {
+    return {config_.image_body_limit, true};
+  }
+  if (method == http::verb::post && (path == "/api/v1/scenes" || path == "/api/v1/planets")) {
+    return {config_.scene_body_limit, true};
+  }
+  constexpr std::string_view kScenes = "/api/v1/scenes/";
+  if (method == http::verb::put && path.starts_with(kScenes) &&
+      path.find('/', kScenes.size()) == std::string_view::npos) {
+    return {config_.scene_body_limit, true};
+  }
+  return {};
+}
+
+Outcome App::off_io_thread(const Request& request, std::function<Response(const Request&)> work) {
+  auto copy = std::make_shared<const Request>(request);
+  Deferred deferred;
+  deferred.work = [this, copy, work = std::move(work)]() -> Response {
+    Response response = work(*copy);
+    add_cors(*copy, response);
+    return response;
+  };
+  return deferred;
+}
+
+Response settle(App& app, const Request& request) {
+  for (int pass = 0;; ++pass) {
+    Outcome outcome = app.handle(request);
+    Deferred* deferred = std::get_if<Deferred>(&outcome);
+    if (deferred == nullptr) return std::move(std::get<Response>(outcome));
+    if (!deferred->prepare) return deferred->work();
+    std::optional<Response> answer = deferred->prepare();
+    if (answer) return std::move(*answer);
+    assert(pass == 0);  // prepared once, the request is handled without another
+  }
+}
+
 Response App::authorize(const Request& request) const {
   if (config_.write_token.empty()) {
     return problem(request, http::status::forbidden, "Writes disabled",
@@ -852,18 +1006,68 @@ Response App::authorize(const Request& request) const {
 terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> App::parse_stored(
     const std::string& text) {
   terrain::ParseOptions options;
-  options.images = [this](std::string_view reference) -> terrain::Result<terrain::Raster> {
+  // Every image node packs its own copy of its pixels into the program, so the bound counts
+  // each use; decoding is done once per image (decoded_image).
+  std::int64_t pixels = 0;
+  options.images = [this, &pixels](std::string_view reference) -> terrain::Result<terrain::Raster> {
     if (!reference.starts_with("sha256:")) {
       return Error{"images are referenced by the hash of an uploaded image (POST /api/v1/images)",
                    ""};
     }
-    StoreResult<Blob> blob = store_->blob(std::string(reference));
-    if (!blob) return Error{blob.error().message, ""};
-    return terrain::decode_heightfield(blob->bytes, blob->media_type);
+    Result<std::shared_ptr<const terrain::Raster>> raster = decoded_image(std::string(reference));
+    if (!raster) return raster.error();
+    pixels += static_cast<std::int64_t>((*raster)->width) * (*raster)->height;
+    if (pixels > config_.scene_image_pixels) {
+      return Error{"the scene's image nodes add up to more than " +
+                       std::to_string(config_.scene_image_pixels) +
+                       " decoded pixels (limits.scene_image_pixels)",
+                   ""};
+    }
+    return **raster;
   };
   terrain::Result<terrain::Scene> scene = terrain::parse_scene_text(text, options);
   if (!scene) return scene.error();
   return std::make_shared<const terrain::Scene>(std::move(scene).value());
+}
+
+terrain::Result<std::shared_ptr<const terrain::Raster>> App::decoded_image(
+    const std::string& hash) {
+  {
+    std::lock_guard lock(images_mutex_);
+    if (auto it = decoded_.find(hash); it != decoded_.end()) return it->second;
+  }
+  StoreResult<Blob> blob = store_->blob(hash);
+  if (!blob) return Error{blob.error().message, ""};
+  Result<terrain::Raster> raster = terrain::decode_heightfield(blob->bytes, blob->media_type);
+  if (!raster) return raster.error();
+  auto shared = std::make_shared<const terrain::Raster>(std::move(raster).value());
+  const std::int64_t size = static_cast<std::int64_t>(shared->width) * shared->height;
+  std::lock_guard lock(images_mutex_);
+  // Bounded by pixels: twice what one scene may use, forgotten all at once beyond.
+  if (decoded_pixels_ + size > 2 * config_.scene_image_pixels) {
+    decoded_.clear();
+    decoded_pixels_ = 0;
+  }
+  if (decoded_.emplace(hash, shared).second) decoded_pixels_ += size;
+  return shared;
+}
+
+terrain::Result<LoadedVersion, terrain::Error> App::compile_scene(const std::string& text) {
+  auto scene = parse_stored(text);
+  if (!scene) return scene.error();
+  // Compiled as every product will compile it: a scene that is stored can always be served.
+  terrain::Result<terrain::TileSource> source = terrain::TileSource::from_scene(**scene);
+  if (!source) return source.error();
+  LoadedVersion loaded;
+  loaded.source = std::make_shared<const terrain::TileSource>(std::move(source).value());
+  loaded.scene = *scene;
+  return loaded;
+}
+
+void App::keep_loaded(const LoadedVersion& loaded) {
+  std::lock_guard lock(versions_mutex_);
+  if (loaded_.size() >= kLoadedVersions) loaded_.clear();
+  loaded_.insert_or_assign(loaded.version.hash, loaded);
 }
 
 terrain::Result<LoadedVersion, Response> App::load_version(const Request& request,
@@ -878,22 +1082,15 @@ terrain::Result<LoadedVersion, Response> App::load_version(const Request& reques
       return loaded;
     }
   }
-  auto scene = parse_stored(version.canonical_json);
-  if (!scene) {
+  terrain::Result<LoadedVersion, terrain::Error> compiled = compile_scene(version.canonical_json);
+  if (!compiled) {
     return problem(request, http::status::internal_server_error, "Stored scene unreadable",
-                   scene.error().message, scene.error().pointer);
+                   compiled.error().message, compiled.error().pointer);
   }
-  terrain::Result<terrain::TileSource> source = terrain::TileSource::from_scene(**scene);
-  if (!source) {
-    return problem(request, http::status::internal_server_error, "Stored scene unreadable",
-                   source.error().message, source.error().pointer);
-  }
-  LoadedVersion loaded{version, std::make_shared<const terrain::TileSource>(std::move(*source)),
-                       *scene};
+  LoadedVersion loaded = std::move(compiled).value();
+  loaded.version = version;
   loaded.version.canonical_json.clear();  // the parsed scene holds it
-  std::lock_guard lock(versions_mutex_);
-  if (loaded_.size() >= kLoadedVersions) loaded_.clear();
-  loaded_.emplace(version.hash, loaded);
+  keep_loaded(loaded);
   return loaded;
 }
 
@@ -905,14 +1102,32 @@ terrain::Result<LoadedVersion, Response> App::resolve(const Request& request,
     return problem(request, http::status::bad_request, "Bad scene id",
                    "scene ids are 1 to 64 characters of a-z, 0-9, '-' and '_'", "/id");
   }
+  // The ref in one spelling ("id@7" for "id@07"), so that re-spellings share one entry of the
+  // bounded memo below instead of evicting the others.
+  const bool pinned = at != std::string::npos;
+  std::string key = id;
+  std::optional<std::int64_t> number;
+  if (pinned) {
+    const std::string token = ref.substr(at + 1);
+    if (token.starts_with("sha256:") && token.size() == 71 &&
+        token.find_first_not_of("0123456789abcdef", 7) == std::string::npos) {
+      key = id + "@" + token;
+    } else if (auto n = parse_integer<std::int64_t>(token); n && *n >= 1) {
+      number = *n;
+      key = id + "@" + std::to_string(*n);
+    } else {
+      return problem(request, http::status::bad_request, "Bad version",
+                     "a version is a number from 1 or a sha256: hash (64 lower-case hex digits)",
+                     "/version");
+    }
+  }
   // Pinned refs name immutable versions: once resolved, never asked of the store again. Head
   // refs are remembered for a second (their responses say max-age=5 anyway) and forgotten at
   // once when this server writes a new version.
-  const bool pinned = at != std::string::npos;
   const auto now = std::chrono::steady_clock::now();
   {
     std::lock_guard lock(versions_mutex_);
-    if (auto it = resolved_.find(ref); it != resolved_.end()) {
+    if (auto it = resolved_.find(key); it != resolved_.end()) {
       if (pinned || now - it->second.second < std::chrono::seconds(1)) return it->second.first;
       resolved_.erase(it);
     }
@@ -921,26 +1136,37 @@ terrain::Result<LoadedVersion, Response> App::resolve(const Request& request,
     if (loaded) {
       std::lock_guard lock(versions_mutex_);
       if (resolved_.size() >= 4096) resolved_.clear();
-      resolved_[ref] = {*loaded, now};
+      resolved_[key] = {*loaded, now};
     }
     return loaded;
   };
   StoreResult<SceneVersion> version = StoreError{};
-  if (at == std::string::npos) {
+  if (!pinned) {
     version = store_->head(id);
+  } else if (number) {
+    version = store_->version(id, *number);
   } else {
-    const std::string token = ref.substr(at + 1);
-    if (token.starts_with("sha256:")) {
-      version = store_->version_by_hash(id, token);
-    } else if (auto n = parse_integer<std::int64_t>(token); n && *n >= 1) {
-      version = store_->version(id, *n);
-    } else {
-      return problem(request, http::status::bad_request, "Bad version",
-                     "a version is a number from 1 or a sha256: hash", "/version");
-    }
+    version = store_->version_by_hash(id, ref.substr(at + 1));
   }
   if (!version) return store_problem(request, version.error());
   return remember(load_version(request, *version));
+}
+
+bool App::is_loaded(const std::string& ref) {
+  const std::size_t at = ref.find('@');
+  std::string key = ref;
+  if (at != std::string::npos) {
+    if (auto n = parse_integer<std::int64_t>(std::string_view(ref).substr(at + 1))) {
+      key = ref.substr(0, at) + "@" + std::to_string(*n);
+    }
+  }
+  std::lock_guard lock(versions_mutex_);
+  const auto it = resolved_.find(key);
+  // A head ref remembered more than a second ago may have moved to a version not loaded yet.
+  return it != resolved_.end() &&
+         (at != std::string::npos ||
+          std::chrono::steady_clock::now() - it->second.second < std::chrono::seconds(1)) &&
+         loaded_.contains(it->second.first.version.hash);
 }
 
 void App::forget_head(const std::string& id) {
@@ -964,22 +1190,37 @@ Response App::list_scenes(const Request& request) {
   return r;
 }
 
+terrain::Result<LoadedVersion, Response> App::compile_for_storing(const Request& request) {
+  auto parsed = parse_stored(request.body());
+  if (!parsed) {
+    return problem(request, http::status::bad_request, "Invalid scene", parsed.error().message,
+                   parsed.error().pointer);
+  }
+  // What is stored is the canonical text, and it is what every later read parses and compiles:
+  // check that, so that a stored scene can always be served (limits included).
+  auto compiled = compile_scene((*parsed)->canonical_text());
+  if (!compiled) {
+    return problem(request, http::status::bad_request, "Invalid scene",
+                   "the scene in its canonical form: " + compiled.error().message,
+                   compiled.error().pointer);
+  }
+  return std::move(compiled).value();
+}
+
 Response App::create_scene(const Request& request, const Target& target) {
   if (Response auth = authorize(request); auth.result() != http::status::ok) return auth;
-  auto scene = parse_stored(request.body());
-  if (!scene) {
-    return problem(request, http::status::bad_request, "Invalid scene", scene.error().message,
-                   scene.error().pointer);
-  }
+  auto compiled = compile_for_storing(request);
+  if (!compiled) return compiled.error();
+  const std::shared_ptr<const terrain::Scene> scene = compiled->scene;
   std::string id = target.get("id");
   if (!id.empty() && !valid_id(id)) {
     return problem(request, http::status::bad_request, "Bad scene id",
                    "scene ids are 1 to 64 characters of a-z, 0-9, '-' and '_'", "/id");
   }
   SceneVersion first;
-  first.name = (*scene)->name;
-  first.hash = (*scene)->hash;
-  first.canonical_json = (*scene)->canonical_text();
+  first.name = scene->name;
+  first.hash = scene->hash;
+  first.canonical_json = scene->canonical_text();
   first.author = "api";
   StoreResult<SceneVersion> created = StoreError{};
   if (!id.empty()) {
@@ -1000,6 +1241,9 @@ Response App::create_scene(const Request& request, const Target& target) {
     }
     return store_problem(request, created.error());
   }
+  compiled->version = *created;
+  compiled->version.canonical_json.clear();
+  keep_loaded(*compiled);  // its first tile needs no parse
   Response r = json_response(request, http::status::created,
                              {{"id", created->scene_id},
                               {"version", created->version},
@@ -1017,11 +1261,9 @@ Response App::put_scene(const Request& request, const std::string& id) {
                    "/id");
   }
   if (Response auth = authorize(request); auth.result() != http::status::ok) return auth;
-  auto scene = parse_stored(request.body());
-  if (!scene) {
-    return problem(request, http::status::bad_request, "Invalid scene", scene.error().message,
-                   scene.error().pointer);
-  }
+  auto compiled = compile_for_storing(request);
+  if (!compiled) return compiled.error();
+  const std::shared_ptr<const terrain::Scene> scene = compiled->scene;
   // The live channel's lock puts this version among live edits in one order (docs/live.md).
   auto channel = live_.channel(id);
   auto held = channel->lock();
@@ -1040,9 +1282,9 @@ Response App::put_scene(const Request& request, const std::string& id) {
     expected = head->version;  // the store refuses if another writer got in between
   }
   SceneVersion next;
-  next.name = (*scene)->name;
-  next.hash = (*scene)->hash;
-  next.canonical_json = (*scene)->canonical_text();
+  next.name = scene->name;
+  next.hash = scene->hash;
+  next.canonical_json = scene->canonical_text();
   next.author = "api";
   StoreResult<SceneVersion> stored =
       commit_version(request, *channel, id, std::move(next), expected);
@@ -1053,6 +1295,9 @@ Response App::put_scene(const Request& request, const std::string& id) {
     }
     return store_problem(request, stored.error());
   }
+  compiled->version = *stored;
+  compiled->version.canonical_json.clear();
+  keep_loaded(*compiled);
   Response r =
       json_response(request, http::status::ok,
                     {{"id", stored->scene_id},
@@ -1213,8 +1458,9 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
                      "TileJSON for raster-dem: encoding terrain-rgb or terrarium", "/encoding");
     }
     terrain::ProductMaker maker(*loaded.source);
-    const auto host = request.find(http::field::host);
-    const std::string origin = host == request.end() ? "" : "http://" + std::string(host->value());
+    auto origin_or = public_origin(request);
+    if (!origin_or) return origin_or.error();
+    const std::string origin = std::move(origin_or).value();
     const std::string scheme_name(terrain::scheme_name(*scheme));
     json body{{"tilejson", "3.0.0"},
               {"name", loaded.scene->name},
@@ -1392,20 +1638,57 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
     if (!v || std::abs(*v) > 1e5) return bad("/water", "water must be an elevation in metres");
     options.water_level = static_cast<float>(*v);
   }
-  const double cost = static_cast<double>(width) * height *
+  // A picture's work is its sphere-tracing steps, each an evaluation of the program: it is
+  // costed by the steps it may take (picture_steps_per_pixel on average) and stopped there,
+  // so that the estimate is a bound, whatever the camera and the tightness of the terrain's
+  // Lipschitz bounds.
+  const std::int64_t pixels = static_cast<std::int64_t>(width) * height;
+  const std::int64_t step_budget = pixels * config_.picture_steps_per_pixel;
+  const double cost = static_cast<double>(step_budget) *
                       static_cast<double>(std::max<std::size_t>(program.code.size(), 1));
-  if (cost > config_.max_cost) {
+  if (cost > config_.max_picture_cost) {
     return problem(request, http::status::unprocessable_entity, "Too costly",
-                   "this picture would cost " + std::to_string(static_cast<long long>(cost)) +
-                       " (pixels x program size), above the limit");
+                   "this picture may cost " + std::to_string(static_cast<long long>(cost)) +
+                       " (pixels x " + std::to_string(config_.picture_steps_per_pixel) +
+                       " steps x program size), above the limit of " +
+                       std::to_string(static_cast<long long>(config_.max_picture_cost)) +
+                       ": ask for fewer pixels",
+                   "/width");
   }
   const bool pinned = request.target().find('@') != boost::beast::string_view::npos;
-  const unsigned version = request.version();
-  const bool keep_alive = request.keep_alive();
+  const bool depth = product == PictureProduct::depth;
+  // Pictures are products: cached by what decides their bytes, answered with ETag and 304.
+  auto bits = [](float v) {
+    char text[16];
+    std::snprintf(text, sizeof text, "%08x", std::bit_cast<std::uint32_t>(v));
+    return std::string(text);
+  };
+  const std::string cache_key =
+      loaded.version.hash + "/picture." + (depth ? "depth" : "png") + "/" + std::to_string(width) +
+      "x" + std::to_string(height) + "/" + bits(camera.position.x) + bits(camera.position.y) +
+      bits(camera.position.z) + bits(camera.target.x) + bits(camera.target.y) +
+      bits(camera.target.z) + bits(camera.vertical_fov_degrees) + bits(options.water_level) + "/" +
+      std::to_string(config_.picture_steps_per_pixel);
+  const ReplyContext reply =
+      ReplyContext::of(request, pinned ? "public, max-age=31536000, immutable"
+                                       : "public, max-age=5, must-revalidate");
+  auto respond = [reply, depth, width, height](const std::shared_ptr<const CachedProduct>& p) {
+    Response r = product_response(reply, p);
+    if (depth) r.set("X-Picture-Size", std::to_string(width) + "x" + std::to_string(height));
+    return r;
+  };
+  if (auto hit = cache_.find(cache_key)) return respond(hit);
+  if (auto hit = find_shared(cache_key)) {
+    cache_.insert(cache_key, hit);
+    return respond(hit);
+  }
   auto source = loaded.source;
   Deferred deferred;
   deferred.cost = cost;
-  deferred.work = [=, this]() -> Response {
+  deferred.lane = Deferred::Lane::picture;
+  options.step_budget = step_budget;
+  options.cancel = deferred.abandoned.get();
+  deferred.work = [=, this, abandoned = deferred.abandoned]() -> Response {
     const auto start = std::chrono::steady_clock::now();
     // The GPU tracer when the server has a GPU backend; the CPU when there is none or it fails
     // (unsupported program, lost context, llvmpipe's loop limit), and the response says which.
@@ -1424,41 +1707,50 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
       }
     }
     if (!traced) picture = terrain::render(*source->terrain, area, camera, options);
-    Request shadow{http::verb::get, "/", version};
-    shadow.keep_alive(keep_alive);
-    const char* cache_control =
-        pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate";
-    if (product == PictureProduct::depth) {
+    const Request shadow = reply.shadow();
+    if (picture.stopped == terrain::Picture::Stop::cancelled) {
+      return problem(shadow, http::status::service_unavailable, "Abandoned",
+                     "the client left before the picture was done");
+    }
+    if (picture.stopped == terrain::Picture::Stop::budget) {
+      return problem(shadow, http::status::unprocessable_entity, "Too costly",
+                     "the picture needed more than " + std::to_string(step_budget) +
+                         " sphere-tracing steps (" +
+                         std::to_string(config_.picture_steps_per_pixel) +
+                         " per pixel, generation.picture_steps_per_pixel): ask for fewer pixels "
+                         "or a camera nearer the terrain",
+                     "/width");
+    }
+    auto cached = std::make_shared<CachedProduct>();
+    if (depth) {
       // Ray distances as little-endian float32, row-major from the top-left pixel.
-      std::string bytes(picture.depth.size() * sizeof(float), '\0');
+      cached->body.assign(picture.depth.size() * sizeof(float), '\0');
       for (std::size_t i = 0; i < picture.depth.size(); ++i) {
-        const auto bits = std::bit_cast<std::uint32_t>(picture.depth[i]);
+        const auto value = std::bit_cast<std::uint32_t>(picture.depth[i]);
         for (std::size_t k = 0; k < 4; ++k) {
-          bytes[4 * i + k] = static_cast<char>((bits >> (8 * k)) & 0xffu);
+          cached->body[4 * i + k] = static_cast<char>((value >> (8 * k)) & 0xffu);
         }
       }
-      Response r =
-          make_response(shadow, http::status::ok, std::move(bytes), "application/octet-stream");
-      r.set(http::field::cache_control, cache_control);
-      r.set(http::field::etag, product_etag(r.body()));
-      r.set("X-Picture-Size", std::to_string(picture.width) + "x" + std::to_string(picture.height));
-      r.set("X-Terrain-Backend", produced);
-      return r;
+      cached->media_type = "application/octet-stream";
+    } else {
+      auto png = terrain::encode_png_rgb8(picture.width, picture.height, picture.rgb.data());
+      if (!png) {
+        return problem(shadow, http::status::internal_server_error, "Encoding failed",
+                       png.error().message);
+      }
+      cached->body.assign(png->begin(), png->end());
+      cached->media_type = "image/png";
     }
-    auto png = terrain::encode_png_rgb8(picture.width, picture.height, picture.rgb.data());
     metrics_.generation(
-        "render", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+        depth ? "depth" : "render",
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
         traced ? "gpu" : (backend_ ? "cpu-fallback" : "cpu"));
-    if (!png) {
-      return problem(shadow, http::status::internal_server_error, "Encoding failed",
-                     png.error().message);
-    }
-    Response r =
-        make_response(shadow, http::status::ok, std::string(png->begin(), png->end()), "image/png");
-    r.set(http::field::cache_control, cache_control);
-    r.set(http::field::etag, product_etag(r.body()));
-    r.set("X-Terrain-Backend", produced);
-    return r;
+    cached->etag = product_etag(cached->body);
+    cached->file = SealedFile::create(cached->body);
+    cached->backend = produced;
+    cache_.insert(cache_key, cached);
+    store_shared(cache_key, *cached);
+    return respond(cached);
   };
   return deferred;
 }
@@ -1476,7 +1768,7 @@ terrain::Status App::seed_examples() {
   std::sort(files.begin(), files.end());
   for (const fs::path& file : files) {
     std::ifstream in(file);
-    json document = json::parse(in, nullptr, false);
+    json document = json::parse(in, nullptr, false);  // a built-in file
     if (document.is_discarded()) return Error{file.string() + ": not JSON", ""};
     std::vector<std::string> images;
     collect_images(document, images);
@@ -1525,7 +1817,7 @@ json planet_summary(const StoredPlanet& p, bool is_default) {
           {"url", "/api/v1/planets/" + p.id},
           {"created_ms", p.created_ms},
           {"default", is_default},
-          {"definition", json::parse(p.canonical_json, nullptr, false)}};
+          {"definition", detail::parse_bounded_json(p.canonical_json)}};
 }
 
 // The continent map a definition names, looked up in the store by its hash and decoded: the only
@@ -1789,8 +2081,9 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
       return problem(request, http::status::bad_request, "Bad encoding",
                      "TileJSON for height tiles: encoding terrain-rgb or terrarium", "/encoding");
     }
-    const auto host = request.find(http::field::host);
-    const std::string origin = host == request.end() ? "" : "http://" + std::string(host->value());
+    auto origin_or = public_origin(request);
+    if (!origin_or) return origin_or.error();
+    const std::string origin = std::move(origin_or).value();
     // Geographic TMS tiles (EPSG:4326, two tiles at zoom 0, rows counted from the south): for
     // Cesium and GIS clients. MapLibre's raster-dem sources are EPSG:3857 only.
     return finish_json({{"tilejson", "3.0.0"},

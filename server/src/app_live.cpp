@@ -10,6 +10,7 @@
 #include "server/app.hpp"
 #include "server/log.hpp"
 #include "server/scene_edit.hpp"
+#include "terrain/json_text.hpp"
 #include "terrain/scene_diff.hpp"
 #include "terrain/tile_products.hpp"
 
@@ -121,8 +122,15 @@ terrain::Result<LiveConnection, Response> App::live_open(const Request& request)
 }
 
 void App::live_message(LiveConnection& c, std::string_view message_text) {
-  json message = json::parse(message_text, nullptr, false);
-  if (message.is_discarded() || !message.is_object()) {
+  // Bounded before anything copies it: edit ops copy their values (docs/live.md, limits).
+  Result<json> parsed = terrain::parse_json_text(message_text, "the message");
+  if (!parsed) {
+    c.self->deliver(text(
+        error_message(400, "Invalid message", parsed.error().message, parsed.error().pointer)));
+    return;
+  }
+  json message = std::move(parsed).value();
+  if (!message.is_object()) {
     c.self->deliver(text(
         error_message(400, "Invalid message", "a message is one JSON object with a \"type\"", "")));
     return;
@@ -324,7 +332,7 @@ void App::live_edit(LiveConnection& c, const json& message) {
       return reject({409, "Unknown version",
                      "the scene is at version " + std::to_string(head->version), "/base"});
     }
-    const json head_doc = json::parse(head->canonical_json, nullptr, false);
+    const json head_doc = detail::parse_bounded_json(head->canonical_json);
     if (head_doc.is_discarded()) {
       return reject({500, "Stored scene unreadable", "the head is not JSON", ""});
     }
@@ -343,7 +351,7 @@ void App::live_edit(LiveConnection& c, const json& message) {
       if (!between) return reject({503, "Store unavailable", between.error().message, ""});
       json previous;
       for (const SceneVersion& v : *between) {
-        json document = json::parse(v.canonical_json, nullptr, false);
+        json document = detail::parse_bounded_json(v.canonical_json);
         const bool own = std::find(c.own_versions.begin(), c.own_versions.end(), v.version) !=
                          c.own_versions.end();
         if (v.version > base_number && !own) {
@@ -422,7 +430,7 @@ json App::version_event(const Request& context, const SceneVersion& current,
                 {"hash", current.hash},
                 {"author", current.author},
                 {"created_ms", current.created_ms}};
-  event["ops"] = current.ops_json.empty() ? json() : json::parse(current.ops_json, nullptr, false);
+  event["ops"] = current.ops_json.empty() ? json() : detail::parse_bounded_json(current.ops_json);
   if (previous.version == 0) {
     event["changed"] = {{"everything", true}, {"box", nullptr}, {"global_formats", "all"}};
     return event;
@@ -481,7 +489,7 @@ void App::publish_version(const std::string& scene, LiveHub::Channel& channel, s
 
 void App::on_remote_event(const std::string& scene, const std::string& event_text) {
   if (!detail::valid_id(scene)) return;
-  const json event = json::parse(event_text, nullptr, false);
+  const json event = detail::parse_bounded_json(event_text);
   if (event.is_discarded() || !event.contains("version") || !event["version"].is_number_integer()) {
     return;
   }

@@ -27,6 +27,10 @@ struct App::Target {
 
 namespace server::detail {
 
+/// JSON the server reads back (stored rows, events from other replicas) with the same bounds as
+/// request bodies (terrain::parse_json_text); a discarded value when refused.
+nlohmann::json parse_bounded_json(std::string_view text);
+
 /// Scene ids: 1 to 64 characters of a-z, 0-9, '-' and '_'.
 bool valid_id(std::string_view id);
 

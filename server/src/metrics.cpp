@@ -100,6 +100,17 @@ std::string Metrics::prometheus(const ProductCache& cache) const {
                 "Requests waiting for or on the generation pool.", queued.load());
   append_sample(out, "terrain_generation_rejected_total", "counter",
                 "Requests refused with 503 (queue full).", rejected.load());
+  append_sample(out, "terrain_generation_abandoned_total", "counter",
+                "Deferred requests whose client left before the answer (skipped if not started; "
+                "pictures stop at the next pixel).",
+                abandoned.load());
+  append_sample(out, "terrain_connections_refused_total", "counter",
+                "Connections answered 503 and closed at once: the server was at "
+                "server.max_connections.",
+                refused_connections.load());
+  append_sample(out, "terrain_accept_backoffs_total", "counter",
+                "Times the accept loop waited because the process was out of descriptors.",
+                accept_backoffs.load());
   append_sample(out, "terrain_cache_reused_across_versions_total", "counter",
                 "Tiles of a new version answered with the previous version's bytes, which the "
                 "edit provably left unchanged.",

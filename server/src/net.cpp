@@ -1,13 +1,17 @@
 #include "server/net.hpp"
 
+#include <sys/resource.h>
 #include <sys/sendfile.h>
 #include <sys/socket.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
 #include <csignal>
 
 #include "live_socket.hpp"
+#include "server/admission.hpp"
 #include "server/log.hpp"
 
 #include <boost/asio.hpp>
@@ -17,8 +21,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <iostream>
 #include <list>
+#include <mutex>
+#include <stop_token>
 #include <thread>
 
 namespace server {
@@ -56,6 +63,36 @@ unsigned thread_count(int configured) {
                         : std::max(1u, std::thread::hardware_concurrency());
 }
 
+// Connections served at once: the configured cap, kept under half the descriptors this process
+// may open (cached products hold a descriptor each, server/sealed_file.hpp).
+int connection_cap(int configured) {
+  rlimit files{};
+  if (::getrlimit(RLIMIT_NOFILE, &files) != 0 || files.rlim_cur == RLIM_INFINITY) {
+    return configured;
+  }
+  const auto half = static_cast<long long>(files.rlim_cur / 2);
+  return static_cast<int>(std::max(1LL, std::min<long long>(configured, half)));
+}
+
+// What a connection beyond the cap is told before it is closed: written with one non-blocking
+// send, as nothing of the connection is read or kept.
+const std::string& too_many_connections() {
+  static const std::string text = [] {
+    const std::string body = R"({"type":"about:blank","title":"Too many connections","status":503,)"
+                             R"("detail":"the server is at its connection limit; retry shortly"})";
+    return "HTTP/1.1 503 Service Unavailable\r\nServer: terrain-server\r\nRetry-After: 1\r\n"
+           "Content-Type: application/problem+json\r\nConnection: close\r\nContent-Length: " +
+           std::to_string(body.size()) + "\r\n\r\n" + body;
+  }();
+  return text;
+}
+
+// Accept failures that mean "out of descriptors or memory": retrying at once would spin.
+bool resource_exhausted(const boost::system::error_code& ec) {
+  return ec == asio::error::no_descriptors || ec == asio::error::no_buffer_space ||
+         ec == asio::error::no_memory || ec.value() == ENFILE;
+}
+
 }  // namespace
 
 struct HttpServer::State {
@@ -67,23 +104,70 @@ struct HttpServer::State {
     asio::executor_work_guard<asio::io_context::executor_type> keep_running{io.get_executor()};
     // Streams of connections waiting for a request: closed at shutdown so they end at once.
     std::list<std::weak_ptr<tcp::socket>> idle;
+    // Every HTTP connection's stream: closed when the shutdown's grace period is over.
+    std::list<std::weak_ptr<tcp::socket>> open;
+  };
+
+  // Pictures (render.png, depth.bin) render on threads of their own at the lowest CPU
+  // priority (nice 19): the kernel gives the cores to tiles first, so a burst of pictures never
+  // holds a tile back, and a picture is never stuck in the queue behind tiles either.
+  struct PicturePool {
+    asio::io_context io;
+    asio::executor_work_guard<asio::io_context::executor_type> keep_running{io.get_executor()};
+    std::vector<std::thread> threads;
+
+    explicit PicturePool(unsigned n) {
+      for (unsigned i = 0; i < n; ++i) {
+        threads.emplace_back([this] {
+          // Linux gives each thread a nice value of its own; failing that, it runs at normal
+          // priority (best effort, nothing to act on).
+          ::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), 19);
+          io.run();
+        });
+      }
+    }
+    void join() {
+      keep_running.reset();
+      for (std::thread& t : threads) t.join();
+      threads.clear();
+    }
+    ~PicturePool() {
+      if (!threads.empty()) {
+        io.stop();
+        join();
+      }
+    }
   };
 
   App& app;
   Config config;
   std::vector<std::unique_ptr<Worker>> workers;
   asio::thread_pool generation;
+  PicturePool pictures;
   tcp::acceptor acceptor;  // on workers[0], which runs the accept loop and closes it
   std::atomic<bool> stopping{false};
   std::size_t next_worker = 0;
   LiveSessions live_sessions;
+  const int max_connections;
+  std::atomic<int> connections{0};  // HTTP and live, accepted and not yet closed
+  std::atomic<int> pictures_queued{0};
+  BodyBudget bodies;
+  LogRate log_rate;
+  // Shutdown: once the grace period has passed, every connection still open is closed.
+  std::mutex shutdown_mutex;
+  std::condition_variable_any shutdown_wake;
+  std::jthread shutdown_closer;
 
   State(App& a, const Config& c)
       : app(a),
         config(c),
         workers(make_workers(thread_count(c.io_threads))),
         generation(thread_count(c.generation_threads)),
-        acceptor(workers[0]->io) {}
+        pictures(thread_count(c.picture_threads)),
+        acceptor(workers[0]->io),
+        max_connections(connection_cap(c.max_connections)),
+        bodies(c.bodies_in_flight_bytes),
+        log_rate(c.log_requests_per_second) {}
 
   static std::vector<std::unique_ptr<Worker>> make_workers(unsigned n) {
     std::vector<std::unique_ptr<Worker>> made;
@@ -91,7 +175,17 @@ struct HttpServer::State {
     return made;
   }
 
+  // Counts a connection for its whole life, live channel included.
+  struct Counted {
+    explicit Counted(std::atomic<int>& n) : count(n) {}
+    ~Counted() { count.fetch_sub(1); }
+    Counted(const Counted&) = delete;
+    Counted& operator=(const Counted&) = delete;
+    std::atomic<int>& count;
+  };
+
   awaitable<void> accept_loop() {
+    asio::steady_timer backoff(workers[0]->io);
     while (!stopping) {
       boost::system::error_code ec;
       Worker& worker = *workers[next_worker];
@@ -100,8 +194,27 @@ struct HttpServer::State {
           co_await acceptor.async_accept(worker.io, asio::redirect_error(use_awaitable, ec));
       if (ec) {
         if (stopping || ec == asio::error::operation_aborted) break;
-        continue;  // e.g. too many open files: keep serving the others
+        if (resource_exhausted(ec)) {
+          // Out of descriptors: the pending connection stays in the backlog, so accepting again
+          // at once fails again and spins. Wait for connections to close instead.
+          app.metrics().accept_backoffs.fetch_add(1);
+          backoff.expires_after(std::chrono::milliseconds(50));
+          co_await backoff.async_wait(asio::redirect_error(use_awaitable, ec));
+        }
+        continue;
       }
+      if (connections.load() >= max_connections) {
+        app.metrics().refused_connections.fetch_add(1);
+        boost::system::error_code ignored;
+        const std::string& refusal = too_many_connections();
+        const ssize_t sent = ::send(socket.native_handle(), refusal.data(), refusal.size(),
+                                    MSG_DONTWAIT | MSG_NOSIGNAL);
+        (void)sent;  // a client that cannot take it now gets the close alone
+        socket.shutdown(tcp::socket::shutdown_both, ignored);
+        socket.close(ignored);
+        continue;
+      }
+      connections.fetch_add(1);
       // Without TCP_NODELAY, Nagle's algorithm holds a body's last, partial segment until the
       // segment before it is acknowledged, and the client may delay that ACK by 40 ms, all that
       // time the connection idles (docs/performance.md). nginx sets it too. Headers still leave
@@ -252,13 +365,119 @@ struct HttpServer::State {
     }
   }
 
+  // Sets `abandoned` when the client hangs up while its request is worked on: a readable socket
+  // whose next byte is the end of the stream (or an error). A client that sends its next
+  // request meanwhile (pipelining) is not watched any further.
+  static void watch_for_hangup(const std::shared_ptr<tcp::socket>& stream,
+                               std::shared_ptr<std::atomic<bool>> abandoned) {
+    stream->async_wait(tcp::socket::wait_read, [weak = std::weak_ptr<tcp::socket>(stream),
+                                                abandoned = std::move(abandoned)](
+                                                   const boost::system::error_code& ec) {
+      if (ec == asio::error::operation_aborted) return;
+      const auto socket = weak.lock();
+      if (!socket) return;
+      char byte = 0;
+      const ssize_t n = ::recv(socket->native_handle(), &byte, 1, MSG_PEEK | MSG_DONTWAIT);
+      if (ec || n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+        abandoned->store(true);
+      }
+    });
+  }
+
+  // Runs Deferred work on its pool, within its lane's queue limit; this coroutine resumes on the
+  // connection's context. Work whose client has gone is skipped if it has not started. Nullopt:
+  // the work prepared the request (Deferred::prepare), which is to be handled again.
+  awaitable<std::optional<Response>> run_deferred(const std::shared_ptr<tcp::socket>& stream,
+                                                  const Request& request, Deferred& work) {
+    const bool picture = work.lane == Deferred::Lane::picture;
+    std::atomic<int>& queued = picture ? pictures_queued : app.metrics().queued;
+    const int limit = picture ? config.picture_queue_limit : config.queue_limit;
+    if (queued.fetch_add(1) >= limit) {
+      queued.fetch_sub(1);
+      app.metrics().rejected.fetch_add(1);
+      Response busy = problem(request, http::status::service_unavailable, "Busy",
+                              picture ? "too many pictures are waiting; retry shortly"
+                                      : "the generation queue is full; retry shortly");
+      busy.set(http::field::retry_after, "1");
+      co_return busy;
+    }
+    watch_for_hangup(stream, work.abandoned);
+    std::optional<Response> response;
+    std::exception_ptr failure;
+    try {
+      auto task = [work = &work,
+                   abandoned = work.abandoned]() -> awaitable<std::optional<Response>> {
+        if (abandoned->load()) co_return Response{http::status::service_unavailable, 11};
+        if (work->prepare) co_return work->prepare();
+        co_return work->work();
+      };
+      // Two statements, not one conditional expression: GCC 12 destroys the temporaries of a
+      // co_await inside ?: twice.
+      if (picture) {
+        response = co_await asio::co_spawn(pictures.io, task, use_awaitable);
+      } else {
+        response = co_await asio::co_spawn(generation, task, use_awaitable);
+      }
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    queued.fetch_sub(1);
+    if (work.abandoned->load()) app.metrics().abandoned.fetch_add(1);
+    boost::system::error_code ignored;
+    stream->cancel(ignored);  // ends the hang-up watch: nothing else is pending on the socket
+    if (failure) {
+      std::string what = "generation failed";
+      try {
+        std::rethrow_exception(failure);
+      } catch (const std::exception& e) {
+        what = e.what();
+      } catch (...) {
+      }
+      response = problem(request, http::status::internal_server_error, "Internal error", what);
+    }
+    if (response) app.add_cors(request, *response);
+    co_return response;
+  }
+
+  // Answers a request that is refused before its body is read, and closes (the unread body
+  // would otherwise be read as the next request).
+  awaitable<void> refuse(tcp::socket& socket, Deadline& deadline, const Request& request,
+                         Response response) {
+    app.add_cors(request, response);
+    response.keep_alive(false);
+    app.metrics().request(App::route_label(request), static_cast<int>(response.result_int()), 0.0);
+    co_await write(socket, deadline, response);
+  }
+
+  void log_request(const Request& request, std::string_view route, int status, double seconds) {
+    if (!log_enabled(LogLevel::info)) return;
+    std::int64_t dropped = 0;
+    // Server errors are always written; the rest at most log.requests_per_second a second.
+    const bool admitted =
+        log_rate.admit(std::chrono::steady_clock::now(), dropped) || status >= 500;
+    if (dropped > 0) {
+      log(LogLevel::info, "requests not logged",
+          {{"count", dropped}, {"limit_per_second", config.log_requests_per_second}});
+    }
+    if (!admitted) return;
+    log(LogLevel::info, "request",
+        {{"method", std::string(request.method_string())},
+         {"target",
+          escape_invalid_utf8(std::string_view(request.target().data(), request.target().size()))},
+         {"route", std::string(route)},
+         {"status", status},
+         {"ms", std::round(seconds * 1e5) / 100.0}});
+  }
+
   awaitable<void> session(tcp::socket accepted, Worker& worker) {
+    const Counted counted(connections);
     auto stream = std::make_shared<tcp::socket>(std::move(accepted));
     beast::flat_buffer buffer;
     Deadline deadline(stream, std::chrono::milliseconds(
                                   std::min({config.header_timeout_ms, config.idle_timeout_ms,
                                             config.body_timeout_ms, config.request_timeout_ms})));
-    // Only this worker's thread touches its idle list.
+    // Only this worker's thread touches its lists.
+    const auto everywhere = worker.open.insert(worker.open.begin(), stream);
     auto registration = worker.idle.end();
     auto set_idle = [&](bool is_idle) {
       if (registration != worker.idle.end()) worker.idle.erase(registration);
@@ -304,7 +523,6 @@ struct HttpServer::State {
       }
       first = false;
       set_idle(false);  // busy: not closed by a shutdown
-      // Body limits depend on the route; refuse before reading a byte of an oversized body.
       const auto& header = header_parser.get();
       const std::string_view target(header.target().data(), header.target().size());
       if (beast::websocket::is_upgrade(header) && App::is_live_target(target)) {
@@ -324,23 +542,60 @@ struct HttpServer::State {
         }
         app.metrics().request("live", 101, seconds);
         if (stopping) break;
+        worker.open.erase(everywhere);  // the live socket closes itself at shutdown
+        set_idle(false);
         co_await serve_live(std::move(*stream), std::move(upgrade), std::move(opened).value(), app,
                             live_sessions);
         co_return;
       }
-      const std::int64_t limit =
-          target.starts_with("/api/v1/images") ? config.image_body_limit : config.scene_body_limit;
+      // Before a byte of the body: framing that could smuggle a request, the route's limit, the
+      // write token, and room among all the bodies being received (a client without a token
+      // pins no memory).
+      Request head(header_parser.get().base());
+      if (const auto framing = check_framing(header)) {
+        co_await refuse(*stream, deadline, head,
+                        problem(head, framing->status, "Bad framing", framing->detail,
+                                "/headers/transfer-encoding"));
+        break;
+      }
+      const App::BodyPolicy policy = app.body_policy(header.method(), target);
       const auto declared = header_parser.content_length();
-      if (declared && static_cast<std::int64_t>(*declared) > limit) {
-        Request bare{header.method(), header.target(), header.version()};
-        bare.keep_alive(false);
-        co_await write(*stream, deadline,
-                       problem(bare, http::status::payload_too_large, "Body too large",
-                               "this route accepts at most " + std::to_string(limit) + " bytes"));
+      const bool has_body = header_parser.chunked() || (declared && *declared > 0);
+      if (has_body && policy.limit == 0) {
+        // The route takes no body: answer without reading it, then close.
+        Outcome outcome = app.handle(head);
+        Response response = std::holds_alternative<Response>(outcome)
+                                ? std::move(std::get<Response>(outcome))
+                                : problem(head, http::status::bad_request, "Unexpected body",
+                                          "this route takes no request body");
+        co_await refuse(*stream, deadline, head, std::move(response));
+        break;
+      }
+      if (policy.write && has_body) {
+        if (Response auth = app.authorize(head); auth.result() != http::status::ok) {
+          co_await refuse(*stream, deadline, head, std::move(auth));
+          break;
+        }
+      }
+      if (declared && static_cast<std::int64_t>(*declared) > policy.limit) {
+        co_await refuse(
+            *stream, deadline, head,
+            problem(head, http::status::payload_too_large, "Body too large",
+                    "this route accepts at most " + std::to_string(policy.limit) + " bytes"));
+        break;
+      }
+      const BodyBudget::Reservation room = bodies.reserve(
+          has_body ? (declared ? static_cast<std::int64_t>(*declared) : policy.limit) : 0);
+      if (has_body && !room) {
+        Response busy = problem(head, http::status::service_unavailable, "Busy",
+                                "the server is receiving as many request bodies as it may (" +
+                                    std::to_string(bodies.limit()) + " bytes); retry shortly");
+        busy.set(http::field::retry_after, "1");
+        co_await refuse(*stream, deadline, head, std::move(busy));
         break;
       }
       http::request_parser<http::string_body> parser(std::move(header_parser));
-      parser.body_limit(static_cast<std::uint64_t>(limit));
+      parser.body_limit(static_cast<std::uint64_t>(std::max<std::int64_t>(policy.limit, 0)));
       if (!parser.is_done()) {  // most requests (GETs) have no body and need no second read
         deadline.arm(config.body_timeout_ms, Deadline::Expiry::shut_receive);
         co_await http::async_read(*stream, buffer, parser, asio::redirect_error(use_awaitable, ec));
@@ -353,7 +608,7 @@ struct HttpServer::State {
             co_await write(
                 *stream, deadline,
                 problem(bare, http::status::payload_too_large, "Body too large",
-                        "this route accepts at most " + std::to_string(limit) + " bytes"));
+                        "this route accepts at most " + std::to_string(policy.limit) + " bytes"));
           } else if (body_timed_out) {
             co_await write(*stream, deadline,
                            problem(bare, http::status::request_timeout, "Request timeout",
@@ -369,41 +624,27 @@ struct HttpServer::State {
         }
       }
       Request request = parser.release();
-      Outcome outcome = app.handle(request);
       Response response;
-      if (Deferred* work = std::get_if<Deferred>(&outcome)) {
-        if (app.metrics().queued.fetch_add(1) >= config.queue_limit) {
-          app.metrics().queued.fetch_sub(1);
-          app.metrics().rejected.fetch_add(1);
-          response = problem(request, http::status::service_unavailable, "Busy",
-                             "the generation queue is full; retry shortly");
-          response.set(http::field::retry_after, "1");
-        } else {
-          // Work on the generation pool; this coroutine resumes on the connection's context.
-          std::exception_ptr failure;
-          try {
-            response = co_await asio::co_spawn(
-                generation, [work]() -> awaitable<Response> { co_return work->work(); },
-                use_awaitable);
-          } catch (...) {
-            failure = std::current_exception();
-          }
-          app.metrics().queued.fetch_sub(1);
-          if (failure) {
-            std::string what = "generation failed";
-            try {
-              std::rethrow_exception(failure);
-            } catch (const std::exception& e) {
-              what = e.what();
-            } catch (...) {
-            }
-            response =
-                problem(request, http::status::internal_server_error, "Internal error", what);
-          }
+      for (int pass = 0;; ++pass) {
+        Outcome outcome = app.handle(request);
+        Deferred* work = std::get_if<Deferred>(&outcome);
+        if (work == nullptr) {
+          response = std::move(std::get<Response>(outcome));
+          break;
         }
-        app.add_cors(request, response);
-      } else {
-        response = std::move(std::get<Response>(outcome));
+        std::optional<Response> answer = co_await run_deferred(stream, request, *work);
+        if (answer) {
+          response = std::move(*answer);
+          break;
+        }
+        // Prepared (its version loaded): handled again, now without loading. Twice at most, so
+        // that a version evicted meanwhile cannot keep a request going round.
+        if (pass == 1) {
+          response = problem(request, http::status::service_unavailable, "Busy",
+                             "the scene version could not be kept loaded; retry shortly");
+          response.set(http::field::retry_after, "1");
+          break;
+        }
       }
       const auto code = response.result_int();
       if (!response.has_content_length() && code != 204 && code != 304 && code >= 200) {
@@ -423,18 +664,12 @@ struct HttpServer::State {
       const std::string_view route = App::route_label(request);
       app.metrics().request(route, status, seconds);
       co_await write(*stream, deadline, response);
-      if (log_enabled(LogLevel::info)) {
-        log(LogLevel::info, "request",
-            {{"method", std::string(request.method_string())},
-             {"target", std::string(request.target())},
-             {"route", std::string(route)},
-             {"status", status},
-             {"ms", std::round(seconds * 1e5) / 100.0}});
-      }
+      log_request(request, route, status, seconds);
       if (!keep_alive) break;
       set_idle(true);
     }
     set_idle(false);
+    worker.open.erase(everywhere);
     boost::system::error_code ignored;
     stream->shutdown(tcp::socket::shutdown_send, ignored);
     stream->close(ignored);
@@ -480,6 +715,9 @@ void HttpServer::run() {
   workers[0]->io.run();
   for (std::thread& t : threads) t.join();
   state_->generation.join();
+  state_->pictures.join();
+  state_->shutdown_closer.request_stop();
+  if (state_->shutdown_closer.joinable()) state_->shutdown_closer.join();
 }
 
 void HttpServer::stop() {
@@ -502,6 +740,25 @@ void HttpServer::stop() {
       w->keep_running.reset();  // run() returns once the sessions in flight have finished
     });
   }
+  // In-flight requests get a grace period; a client that does not read its answer does not
+  // hold the shutdown for the whole write timeout.
+  s->shutdown_closer = std::jthread([s](std::stop_token stop) {
+    std::unique_lock lock(s->shutdown_mutex);
+    s->shutdown_wake.wait_for(lock, stop, std::chrono::milliseconds(s->config.shutdown_timeout_ms),
+                              [] { return false; });
+    if (stop.stop_requested()) return;
+    log(LogLevel::info, "shutdown grace period over", {{"ms", s->config.shutdown_timeout_ms}});
+    for (auto& worker : s->workers) {
+      asio::post(worker->io, [w = worker.get()] {
+        for (auto& weak : w->open) {
+          if (auto stream = weak.lock()) {
+            boost::system::error_code ignored;
+            stream->close(ignored);
+          }
+        }
+      });
+    }
+  });
 }
 
 }  // namespace server

@@ -40,9 +40,7 @@ class AppTest : public ::testing::Test {
 
   static Response get(const std::string& target) {
     Request request{http::verb::get, target, 11};
-    Outcome outcome = app_->handle(request);
-    if (Deferred* d = std::get_if<Deferred>(&outcome)) return d->work();
-    return std::get<Response>(outcome);
+    return settle(*app_, request);
   }
 
   static inline fs::path dir_;
@@ -224,7 +222,7 @@ TEST_F(AppTest, HeadRefTilesFollowNewVersions) {
     request.set(http::field::authorization, "Bearer app-test-token");
     request.body() = body;
     request.prepare_payload();
-    return std::get<Response>(app_->handle(request));
+    return settle(*app_, request);
   };
   ASSERT_EQ(write(http::verb::post, "/api/v1/scenes?id=remembered", scene(100)).result(),
             http::status::created);

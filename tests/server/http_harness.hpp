@@ -11,6 +11,7 @@
 #include <poll.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -97,8 +98,9 @@ class ServerProcess {
  public:
   /// Starts the server on 127.0.0.1 with any free port, an empty config file (so only these
   /// flags and the built-in defaults apply), the repository's built-in scenes and planets and
-  /// `data_dir`.
-  ServerProcess(const fs::path& data_dir, const std::vector<std::string>& flags) {
+  /// `data_dir`. `max_files` > 0 starts it under that descriptor limit (soft and hard).
+  ServerProcess(const fs::path& data_dir, const std::vector<std::string>& flags,
+                rlim_t max_files = 0) {
     const fs::path config = data_dir.parent_path() / (data_dir.filename().string() + ".toml");
     std::ofstream(config) << "# empty: flags only\n";
     std::vector<std::string> args = {TERRAIN_SERVER,
@@ -139,6 +141,10 @@ class ServerProcess {
     if (pid_ == 0) {
       ::prctl(PR_SET_PDEATHSIG, SIGKILL);
       if (::getppid() != parent) ::_exit(126);
+      if (max_files > 0) {
+        const rlimit files{max_files, max_files};
+        if (::setrlimit(RLIMIT_NOFILE, &files) != 0) ::_exit(125);
+      }
       ::dup2(out[1], STDOUT_FILENO);
       ::execve(argv[0], argv.data(), envp.data());
       ::_exit(127);

@@ -145,7 +145,9 @@ TEST_F(HttpLimits, MalformedRequestsAre400) {
         "GET /healthz HTTP/1.1\r\nHost x\r\n\r\n", "GET /healthz HTTP/1.1\r\nHo st: x\r\n\r\n",
         "GET /healthz HTTP/1.1\r\nContent-Length: abc\r\n\r\n",
         "GET /healthz HTTP/1.1\r\nContent-Length: 1\r\nContent-Length: 2\r\n\r\n",
-        "POST /api/v1/scenes HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\nzz\r\n",
+        // With the token: a write without it is refused before its body is read (401).
+        "POST /api/v1/scenes HTTP/1.1\r\nAuthorization: Bearer integration-test-token\r\n"
+        "Transfer-Encoding: chunked\r\n\r\nzz\r\n",
         "GET healthz HTTP/1.1\r\nHost: x\r\n\r\n",
         "GET http://elsewhere.example/healthz HTTP/1.1\r\nHost: x\r\n\r\n"}) {
     SCOPED_TRACE(text);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -25,6 +26,7 @@
 #include "server/static_files.hpp"
 #include "server/store.hpp"
 #include "server/thread_shards.hpp"
+#include "terrain/image_io.hpp"
 #include "terrain/scene_diff.hpp"
 #include "terrain/tile_image.hpp"
 #include "terrain/tile_source.hpp"
@@ -77,6 +79,17 @@ class App {
   const std::string& backend_reason() const { return backend_reason_; }
   Metrics& metrics() { return metrics_; }
   ProductCache& cache() { return cache_; }
+  /// What a request may send as its body, decided by its header alone so that the session can
+  /// refuse before reading a byte: the route's limit (0: the route takes no body), and whether
+  /// the route is a write, whose token is then checked first.
+  struct BodyPolicy {
+    std::int64_t limit = 0;
+    bool write = false;
+  };
+  BodyPolicy body_policy(http::verb method, std::string_view target) const;
+  /// Checks a write's bearer token: result() == ok when allowed, else the 401/403 to send.
+  Response authorize(const Request& request) const;
+
   /// The route label a request counts under in /metrics.
   static std::string_view route_label(const Request& request);
   /// Adds the CORS headers the configuration allows for this request's Origin.
@@ -133,7 +146,6 @@ class App {
                  PictureProduct product);
   Outcome trace_bundle(const Request& request, const LoadedVersion& loaded, bool pinned);
   Response trace_glsl(const Request& request) const;
-  Response authorize(const Request& request) const;  // result() == ok when allowed
   bool token_matches(std::string_view given) const;  // constant time
   Response scene_changes(const Request& request, const std::string& id, const Target& target);
 
@@ -183,6 +195,23 @@ class App {
                                                          const std::string& ref);
 
   terrain::Result<LoadedVersion, Response> resolve(const Request& request, const std::string& ref);
+  /// The scheme and authority absolute URLs start with: server.public_url when set, else
+  /// "http://" and the request's Host once validated (400 naming /headers/host otherwise).
+  terrain::Result<std::string, Response> public_origin(const Request& request) const;
+  /// True when `ref` resolves to a version already parsed and compiled (no work to resolve it).
+  bool is_loaded(const std::string& ref);
+  /// `work` as Deferred work for the generation pool: what parses, compiles and stores a scene
+  /// stays off the I/O threads.
+  Outcome off_io_thread(const Request& request, std::function<Response(const Request&)> work);
+  /// A scene's text parsed (images decoded once per hash, within limits.scene_image_pixels) and
+  /// compiled; the version is left for the caller to fill in.
+  terrain::Result<LoadedVersion, terrain::Error> compile_scene(const std::string& text);
+  /// A request body's scene checked as it will be read back: its canonical form compiled.
+  terrain::Result<LoadedVersion, Response> compile_for_storing(const Request& request);
+  /// Keeps a compiled version for the products of its hash (bounded).
+  void keep_loaded(const LoadedVersion& loaded);
+  /// An uploaded image decoded, shared by every scene and version that uses it (bounded).
+  terrain::Result<std::shared_ptr<const terrain::Raster>> decoded_image(const std::string& hash);
   terrain::Result<LoadedVersion, Response> load_version(const Request& request,
                                                         const SceneVersion& version);
   terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> parse_stored(
@@ -204,6 +233,9 @@ class App {
   StaticFiles client_;
   std::shared_ptr<terrain::PointsBackend> backend_;  ///< null: the CPU
   std::string backend_reason_;
+  std::mutex images_mutex_;
+  std::unordered_map<std::string, std::shared_ptr<const terrain::Raster>> decoded_;  // by hash
+  std::int64_t decoded_pixels_ = 0;  ///< in decoded_
   std::mutex versions_mutex_;
   std::unordered_map<std::string, LoadedVersion> loaded_;  // by version hash (bounded)
   // Scene refs ("id", "id@3") already resolved, with when (head refs expire).
@@ -226,5 +258,9 @@ class App {
   std::unique_ptr<LiveBus> bus_;  ///< null unless live.redis_url is set
   std::jthread sweeper_;          ///< reads followed scenes' heads (with a bus)
 };
+
+/// Handles a request to its answer on the calling thread, deferred work included (what the
+/// session does across its threads): for tests and tools.
+Response settle(App& app, const Request& request);
 
 }  // namespace server

@@ -29,10 +29,25 @@ struct Config {
   int port = 8080;
   int io_threads = 0;                     ///< 0 = one per core
   std::vector<std::string> cors_origins;  ///< "*" allows any origin; empty = no CORS headers
+  /// Connections served at once; more are answered 503 and closed (also kept under the
+  /// descriptor limit).
+  int max_connections = 4096;
+  /// "https://tiles.example.com": the base of absolute URLs in TileJSON; empty = from a
+  /// validated Host header.
+  std::string public_url;
+  int shutdown_timeout_ms = 5'000;  ///< SIGTERM: connections still open then are closed
   // work
   int generation_threads = 0;  ///< 0 = one per core
   int queue_limit = 64;        ///< requests waiting for a generation thread before 503
   double max_cost = 5.0e7;     ///< samples × program cost a request may ask for (else 422)
+  /// Pictures: pixels × picture_steps_per_pixel × program cost (else 422). Their own limit, as
+  /// a traced step is a scalar evaluation with its bounds, and pictures run apart from tiles.
+  double max_picture_cost = 2.0e9;
+  int picture_threads = 0;       ///< render.png / depth.bin, lowest CPU priority (0 = per core)
+  int picture_queue_limit = 16;  ///< pictures waiting or rendering before 503
+  /// Sphere-tracing steps a picture may take per pixel, on average: its cost estimate and the
+  /// bound on its work.
+  int picture_steps_per_pixel = 64;
   Backend backend = Backend::automatic;
   // caches
   std::int64_t cache_bytes = 256ll << 20;  ///< in-memory LRU budget
@@ -58,6 +73,10 @@ struct Config {
   int body_timeout_ms = 30'000;
   int request_timeout_ms = 60'000;
   int idle_timeout_ms = 60'000;
+  /// Request bodies being received at once, all connections together, before 503.
+  std::int64_t bodies_in_flight_bytes = 128ll << 20;
+  /// Decoded pixels of all the images one scene uses (each distinct image once).
+  std::int64_t scene_image_pixels = 64ll << 20;
   // live editing (docs/live.md)
   std::int64_t live_max_message_bytes = 1ll << 20;  ///< larger messages close with 1009
   int live_handshake_timeout_ms = 10'000;           ///< time to send `subscribe`
@@ -70,7 +89,8 @@ struct Config {
   std::string live_redis_url;  ///< replicas hear each other's versions here; empty = one replica
   int live_sweep_ms = 2000;    ///< with live_redis_url: how often followed scenes' heads are read
   // logging
-  std::string log_level = "info";  ///< error, warn, info, debug
+  std::string log_level = "info";    ///< error, warn, info, debug
+  int log_requests_per_second = 50;  ///< request lines at info; beyond, one summary a second
 
   std::string config_file;  ///< the file that was read, if any
 };

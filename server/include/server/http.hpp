@@ -5,8 +5,10 @@
 
 #include "server/sealed_file.hpp"
 
+#include <atomic>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <variant>
@@ -78,11 +80,26 @@ using Response = http::response<PayloadBody>;
 Response problem(const Request& request, http::status status, std::string_view title,
                  std::string_view detail, std::string_view pointer = "");
 
+/// `text` with every byte that does not start a well-formed UTF-8 sequence written as `\xHH`:
+/// what an answer may echo of a client's bytes.
+std::string escape_invalid_utf8(std::string_view text);
+
 /// Work a request needs from the generation pool: its estimated cost and the function that
 /// produces the response there.
 struct Deferred {
+  /// Which pool: tiles and other products come first; pictures (render.png, depth.bin) run on
+  /// threads of their own at the lowest CPU priority, so that they never hold a tile back.
+  enum class Lane { product, picture };
   double cost = 0.0;
+  Lane lane = Lane::product;
   std::function<Response()> work;
+  /// Set instead of `work` when the pool only prepares the request (parses and compiles the
+  /// scene version it reads): an answer (an error), or nullopt, and the request is then handled
+  /// again, which may defer its product in turn, on its own lane.
+  std::function<std::optional<Response>()> prepare;
+  /// Set by the session when the client has gone: work not started is skipped, and work that
+  /// looks at it (renders, row by row) stops early. Shared with `work`'s captures.
+  std::shared_ptr<std::atomic<bool>> abandoned = std::make_shared<std::atomic<bool>>(false);
 };
 
 /// What handling a request gives: the response now, or work for the generation pool.

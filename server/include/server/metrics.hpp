@@ -32,6 +32,9 @@ class Metrics {
 
   std::atomic<int> queued{0};    ///< requests waiting for or running on the generation pool
   std::atomic<int> rejected{0};  ///< requests refused because the queue was full
+  std::atomic<std::int64_t> abandoned{0};  ///< deferred work whose client left before the answer
+  std::atomic<std::int64_t> refused_connections{0};  ///< closed at once: at the connection cap
+  std::atomic<std::int64_t> accept_backoffs{0};      ///< accept waits for lack of descriptors
   /// Tiles of a new version answered with the previous version's bytes (provably the same).
   std::atomic<std::int64_t> reused_across_versions{0};
   std::atomic<int> live_connections{0};             ///< open live WebSockets
