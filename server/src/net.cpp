@@ -551,48 +551,53 @@ struct HttpServer::State {
       // Before a byte of the body: framing that could smuggle a request, the route's limit, the
       // write token, and room among all the bodies being received (a client without a token
       // pins no memory).
-      Request head(header_parser.get().base());
+      // The header as a request, for the answers below (a copy: only when one is sent).
+      auto head = [&header_parser] { return Request(header_parser.get().base()); };
       if (const auto framing = check_framing(header)) {
-        co_await refuse(*stream, deadline, head,
-                        problem(head, framing->status, "Bad framing", framing->detail,
+        const Request request = head();
+        co_await refuse(*stream, deadline, request,
+                        problem(request, framing->status, "Bad framing", framing->detail,
                                 "/headers/transfer-encoding"));
         break;
       }
       const App::BodyPolicy policy = app.body_policy(header.method(), target);
       const auto declared = header_parser.content_length();
       const bool has_body = header_parser.chunked() || (declared && *declared > 0);
-      if (has_body && policy.limit == 0) {
-        // The route takes no body: answer without reading it, then close.
-        Outcome outcome = app.handle(head);
-        Response response = std::holds_alternative<Response>(outcome)
-                                ? std::move(std::get<Response>(outcome))
-                                : problem(head, http::status::bad_request, "Unexpected body",
-                                          "this route takes no request body");
-        co_await refuse(*stream, deadline, head, std::move(response));
-        break;
-      }
-      if (policy.write && has_body) {
-        if (Response auth = app.authorize(head); auth.result() != http::status::ok) {
-          co_await refuse(*stream, deadline, head, std::move(auth));
+      BodyBudget::Reservation room;
+      if (has_body) {
+        const Request request = head();
+        if (policy.limit == 0) {
+          // The route takes no body: answer without reading it, then close.
+          Outcome outcome = app.handle(request);
+          Response response = std::holds_alternative<Response>(outcome)
+                                  ? std::move(std::get<Response>(outcome))
+                                  : problem(request, http::status::bad_request, "Unexpected body",
+                                            "this route takes no request body");
+          co_await refuse(*stream, deadline, request, std::move(response));
           break;
         }
-      }
-      if (declared && static_cast<std::int64_t>(*declared) > policy.limit) {
-        co_await refuse(
-            *stream, deadline, head,
-            problem(head, http::status::payload_too_large, "Body too large",
-                    "this route accepts at most " + std::to_string(policy.limit) + " bytes"));
-        break;
-      }
-      const BodyBudget::Reservation room = bodies.reserve(
-          has_body ? (declared ? static_cast<std::int64_t>(*declared) : policy.limit) : 0);
-      if (has_body && !room) {
-        Response busy = problem(head, http::status::service_unavailable, "Busy",
-                                "the server is receiving as many request bodies as it may (" +
-                                    std::to_string(bodies.limit()) + " bytes); retry shortly");
-        busy.set(http::field::retry_after, "1");
-        co_await refuse(*stream, deadline, head, std::move(busy));
-        break;
+        if (policy.write) {
+          if (Response auth = app.authorize(request); auth.result() != http::status::ok) {
+            co_await refuse(*stream, deadline, request, std::move(auth));
+            break;
+          }
+        }
+        if (declared && static_cast<std::int64_t>(*declared) > policy.limit) {
+          co_await refuse(
+              *stream, deadline, request,
+              problem(request, http::status::payload_too_large, "Body too large",
+                      "this route accepts at most " + std::to_string(policy.limit) + " bytes"));
+          break;
+        }
+        room = bodies.reserve(declared ? static_cast<std::int64_t>(*declared) : policy.limit);
+        if (!room) {
+          Response busy = problem(request, http::status::service_unavailable, "Busy",
+                                  "the server is receiving as many request bodies as it may (" +
+                                      std::to_string(bodies.limit()) + " bytes); retry shortly");
+          busy.set(http::field::retry_after, "1");
+          co_await refuse(*stream, deadline, request, std::move(busy));
+          break;
+        }
       }
       http::request_parser<http::string_body> parser(std::move(header_parser));
       parser.body_limit(static_cast<std::uint64_t>(std::max<std::int64_t>(policy.limit, 0)));
