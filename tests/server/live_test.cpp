@@ -359,12 +359,13 @@ TEST_F(LiveEditing, ANonReadingClientIsCutOffWhileMemoryStaysBounded) {
   fast.subscribe(false);
   const double cut_before = metric(port(), "terrain_live_slow_readers_total");
   double most_owed = 0;
-  // Each version event carries its ops: 200 kB of name per edit, 60 edits = 12 MB of events
-  // for each subscriber, far beyond the 256 kB backlog the test server allows one connection.
+  // Each version event carries its ops: 200 kB of node label per edit, 60 edits = 12 MB of
+  // events for each subscriber, far beyond the 256 kB backlog the test server allows one
+  // connection.
   const std::string padding(200000, 'n');
   for (int i = 0; i < 60; ++i) {
-    author.send(edit(1 + i, json::array({{{"op", "replace"},
-                                          {"path", "/name"},
+    author.send(edit(1 + i, json::array({{{"op", "add"},
+                                          {"path", "/root/children/0/id"},
                                           {"value", padding + std::to_string(i)}}})));
     author.next_of("ack");
     EXPECT_EQ(fast.next_of("version")["version"], 2 + i);
