@@ -140,6 +140,10 @@ const std::vector<Option>& options() {
        1, 1e9, "edits one connection may send at once"},
       {"live.max_subscribers", "--live-max-subscribers", "TERRAIN_LIVE_MAX_SUBSCRIBERS",
        &Config::live_max_subscribers, 1, 1e9, "live connections per scene"},
+      {"live.read_bytes_per_second", "--live-read-bytes-per-second",
+       "TERRAIN_LIVE_READ_BYTES_PER_SECOND", &Config::live_read_bytes_per_second, 1024, kBig,
+       "what one live connection may send per second (frames and all), in bursts of one "
+       "message's wire budget"},
       {"live.redis_url", "--live-redis-url", "TERRAIN_LIVE_REDIS_URL", &Config::live_redis_url, 0,
        0, "Redis whose pub/sub carries version events between replicas (empty = one replica)"},
       {"live.sweep_ms", "--live-sweep-ms", "TERRAIN_LIVE_SWEEP_MS", &Config::live_sweep_ms, 10,

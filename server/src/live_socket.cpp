@@ -1,7 +1,11 @@
 #include "live_socket.hpp"
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <deque>
+#include <functional>
+#include <limits>
 #include <mutex>
 
 #include <boost/asio.hpp>
@@ -19,11 +23,85 @@ using tcp = asio::ip::tcp;
 using asio::awaitable;
 using asio::use_awaitable;
 
+namespace {
+
+// Meters what one live connection reads from its socket, below the WebSocket layer, where every
+// byte counts: frame headers, empty frames and control frames too. Above it nothing sees empty
+// non-final frames: Beast's reader loops over them without returning, and read_message_max
+// counts payload only, so a peer could stream them inside one message forever. Two bounds
+// (docs/live.md, "Limits"):
+// - one message may take `message_budget` wire bytes, counted from the end of the previous one;
+//   reaching it calls on_over_budget (the connection is cut) and nothing more is read;
+// - reads are paced by a token bucket refilled at `bytes_per_second` that holds one message's
+//   budget (or one second's worth, if more: basic_stream waits in one-second steps), so one
+//   full-size message arrives at once, and a flood of anything (tiny messages, pings, empty
+//   frames) costs the server at most that many bytes a second per connection.
+// A Beast rate policy (basic_stream): called on the connection's thread only.
+class LiveReadMeter {
+ public:
+  LiveReadMeter(std::int64_t message_budget, std::int64_t bytes_per_second)
+      : budget_(static_cast<double>(message_budget)),
+        rate_(static_cast<double>(bytes_per_second)),
+        capacity_(std::max(budget_, rate_)),
+        tokens_(capacity_),
+        refilled_(std::chrono::steady_clock::now()) {}
+
+  /// Called once, when a message has taken its whole budget.
+  std::function<void()> on_over_budget;
+  /// A whole message was read: the next one starts a fresh budget.
+  void message_done() { message_bytes_ = 0; }
+
+ private:
+  friend class beast::rate_policy_access;
+
+  std::size_t available_read_bytes() {
+    const auto now = std::chrono::steady_clock::now();
+    tokens_ = std::min(capacity_,
+                       tokens_ + std::chrono::duration<double>(now - refilled_).count() * rate_);
+    refilled_ = now;
+    const double allowed = std::min(tokens_, budget_ - message_bytes_);
+    // basic_stream waits for its next one-second tick when this is 0.
+    return allowed < 1.0 ? 0 : static_cast<std::size_t>(allowed);
+  }
+  void transfer_read_bytes(std::size_t n) {
+    tokens_ -= static_cast<double>(n);
+    message_bytes_ += static_cast<double>(n);
+    if (message_bytes_ >= budget_ && !over_budget_) {
+      over_budget_ = true;
+      if (on_over_budget) on_over_budget();
+    }
+  }
+  static std::size_t available_write_bytes() { return std::numeric_limits<std::size_t>::max(); }
+  static void transfer_write_bytes(std::size_t) {}
+  static void on_timer() {}
+
+  const double budget_;
+  const double rate_;
+  const double capacity_;
+  double tokens_;
+  double message_bytes_ = 0.0;
+  bool over_budget_ = false;
+  std::chrono::steady_clock::time_point refilled_;
+};
+
+/// The wire bytes one message may take: twice the largest message (room for the 6 to 14 header
+/// bytes of each masked frame of 6 payload bytes or more) plus room for control frames and for
+/// what the reader read ahead of the next message (Beast's 1536-byte buffer).
+std::int64_t live_message_budget(const Config& config) {
+  constexpr std::int64_t kAllowance = 16 << 10;
+  return 2 * config.live_max_message_bytes + kAllowance;
+}
+
+using LiveStream = beast::basic_stream<tcp, asio::any_io_executor, LiveReadMeter>;
+
+}  // namespace
+
 class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_this<LiveSocket> {
  public:
   LiveSocket(tcp::socket socket, const Config& config, Metrics& metrics)
       : metrics_(metrics),
-        ws_(std::move(socket)),
+        ws_(LiveReadMeter(live_message_budget(config), config.live_read_bytes_per_second),
+            std::move(socket)),
         wake_(ws_.get_executor()),
         queue_bytes_(config.live_queue_bytes),
         queue_messages_(config.live_queue_messages) {
@@ -58,7 +136,20 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
     asio::post(ws_.get_executor(), [self = shared_from_this()] { self->wake_.cancel_one(); });
   }
 
-  websocket::stream<tcp::socket>& ws() { return ws_; }
+  websocket::stream<LiveStream>& ws() { return ws_; }
+  LiveReadMeter& meter() { return beast::get_lowest_layer(ws_).rate_policy(); }
+
+  /// Cuts the connection when a message takes more wire bytes than its budget.
+  void watch_reads() {
+    meter().on_over_budget = [weak = weak_from_this()] {
+      auto self = weak.lock();
+      if (!self) return;
+      self->flooded_ = true;
+      // Posted: the meter is called from inside the read that counted the bytes.
+      asio::post(self->ws_.get_executor(), [self] { self->cut("a message took too many bytes"); });
+    };
+  }
+  bool flooded() const { return flooded_; }
 
   ~LiveSocket() override {
     // Messages queued after the writer ended (the connection went first) are owed no more.
@@ -111,8 +202,8 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
     if (!open_) return;
     open_ = false;
     log(LogLevel::info, "live connection cut", {{"why", std::string(why)}});
-    boost::system::error_code ignored;
-    beast::get_lowest_layer(ws_).close(ignored);
+    // basic_stream's close also ends a read waiting for the read meter.
+    beast::get_lowest_layer(ws_).close();
     wake_.cancel();
   }
 
@@ -145,7 +236,7 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
 
  private:
   Metrics& metrics_;
-  websocket::stream<tcp::socket> ws_;
+  websocket::stream<LiveStream> ws_;
   asio::steady_timer wake_;  // cancelled to wake the writer
   std::mutex queue_mutex_;
   std::deque<std::shared_ptr<const std::string>> queue_;  // guarded by queue_mutex_
@@ -154,6 +245,7 @@ class LiveSocket final : public LiveSubscriber, public std::enable_shared_from_t
   std::atomic<bool> overflowed_{false};
   bool open_ = true;
   bool closing_ = false;
+  bool flooded_ = false;
   const std::int64_t queue_bytes_;
   const int queue_messages_;
 };
@@ -179,6 +271,7 @@ awaitable<void> serve_live(tcp::socket socket, Request upgrade, LiveConnection c
                            LiveSessions& sessions) {
   const Config& config = app.config();
   auto session = std::make_shared<LiveSocket>(std::move(socket), config, app.metrics());
+  session->watch_reads();
   auto& ws = session->ws();
   // Beast pings a connection that has been silent for half the idle time and drops it when the
   // whole idle time passes without a frame (a pong counts).
@@ -213,6 +306,7 @@ awaitable<void> serve_live(tcp::socket socket, Request upgrade, LiveConnection c
   while (true) {
     co_await ws.async_read(buffer, asio::redirect_error(use_awaitable, ec));
     if (ec) break;
+    session->meter().message_done();
     if (!ws.got_text()) {
       connection.self->deliver(std::make_shared<const std::string>(
           R"({"type":"error","status":400,"title":"Invalid message","detail":"messages are JSON text frames"})"));
@@ -225,7 +319,9 @@ awaitable<void> serve_live(tcp::socket socket, Request upgrade, LiveConnection c
     buffer.consume(buffer.size());
   }
   subscribe_deadline.cancel();
-  if (ec == websocket::error::message_too_big) app.metrics().live_oversize.fetch_add(1);
+  if (ec == websocket::error::message_too_big || session->flooded()) {
+    app.metrics().live_oversize.fetch_add(1);
+  }
   if (session->overflowed()) app.metrics().live_slow_readers.fetch_add(1);
   app.live_close(connection);
   session->stop_writer();

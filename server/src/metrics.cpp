@@ -120,8 +120,10 @@ std::string Metrics::prometheus(const ProductCache& cache) const {
   append_sample(out, "terrain_live_backlog_bytes", "gauge",
                 "Bytes queued for live connections and not yet written to their sockets.",
                 live_backlog_bytes.load());
-  append_sample(out, "terrain_live_oversize_total", "counter",
-                "Live connections closed for an oversize message (1009).", live_oversize.load());
+  append_sample(
+      out, "terrain_live_oversize_total", "counter",
+      "Live connections closed for an oversize message (1009, or cut for its wire bytes).",
+      live_oversize.load());
   append_sample(out, "terrain_live_slow_readers_total", "counter",
                 "Live connections cut because they fell too far behind.", live_slow_readers.load());
   out << "# TYPE terrain_cache_hits_total counter\nterrain_cache_hits_total " << cache.hits()

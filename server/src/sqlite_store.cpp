@@ -119,6 +119,34 @@ class SqliteStore final : public Store {
   explicit SqliteStore(sqlite3* db) : db_(db) {}
   ~SqliteStore() override { sqlite3_close(db_); }
 
+  /// Checks an existing file before anything writes to it: a damaged store is refused rather
+  /// than partly read and written on. quick_check walks every page's b-tree structure (cell
+  /// layout, row order, page links, free list) in one pass without comparing indexes with their
+  /// tables, so start-up stays fast (docs/server.md, "Damaged stores").
+  StoreResult<bool> check_integrity(const std::string& path) {
+    std::lock_guard lock(mutex_);
+    auto damaged = [&](const std::string& what) {
+      return StoreError{Kind::unavailable,
+                        "'" + path + "' is damaged (" + what +
+                            "): the server does not start on it; restore it from a backup, or "
+                            "move it away to start a new store"};
+    };
+    Statement q(db_, "PRAGMA quick_check(8)");
+    if (!q.ok()) return damaged(sqlite3_errmsg(db_));
+    std::string problems;
+    int rc = 0;
+    while ((rc = q.step()) == SQLITE_ROW) {
+      const std::string line = q.text(0);
+      if (line == "ok") continue;
+      problems += (problems.empty() ? "" : "; ") + line;
+    }
+    if (rc != SQLITE_DONE) {
+      problems += (problems.empty() ? "" : "; ") + std::string(sqlite3_errmsg(db_));
+    }
+    if (!problems.empty()) return damaged(problems);
+    return true;
+  }
+
   StoreResult<bool> migrate() {
     std::lock_guard lock(mutex_);
     for (const char* pragma : {"PRAGMA journal_mode=WAL", "PRAGMA synchronous=FULL",
@@ -407,22 +435,36 @@ class SqliteStore final : public Store {
 }  // namespace
 
 StoreResult<std::unique_ptr<Store>> open_sqlite_store(const std::string& data_dir) {
+  namespace fs = std::filesystem;
   std::error_code ec;
-  std::filesystem::create_directories(data_dir, ec);
+  fs::create_directories(data_dir, ec);
   if (ec) {
     return StoreError{Kind::unavailable, "cannot create '" + data_dir + "': " + ec.message()};
   }
-  const std::string path = (std::filesystem::path(data_dir) / "terrain.sqlite3").string();
+  const std::string path = (fs::path(data_dir) / "terrain.sqlite3").string();
+  // Only a missing file is a new store. SQLite would take an empty file for a new database and
+  // the server would seed it: an emptied store must not quietly become the built-in examples.
+  const bool existing = fs::exists(path, ec);
+  if (ec) return StoreError{Kind::unavailable, "cannot inspect '" + path + "': " + ec.message()};
+  if (existing && fs::is_regular_file(path, ec) && fs::file_size(path, ec) == 0 && !ec) {
+    return StoreError{Kind::unavailable,
+                      "'" + path +
+                          "' is empty (0 bytes), not a store: the server does not start on it; "
+                          "restore it from a backup, or move it away to start a new store"};
+  }
   sqlite3* db = nullptr;
-  const int rc =
-      sqlite3_open_v2(path.c_str(), &db,
-                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX, nullptr);
+  const int flags =
+      SQLITE_OPEN_READWRITE | SQLITE_OPEN_FULLMUTEX | (existing ? 0 : SQLITE_OPEN_CREATE);
+  const int rc = sqlite3_open_v2(path.c_str(), &db, flags, nullptr);
   if (rc != SQLITE_OK) {
     std::string message = db != nullptr ? sqlite3_errmsg(db) : "out of memory";
     sqlite3_close(db);
     return StoreError{Kind::unavailable, "cannot open '" + path + "': " + message};
   }
   auto store = std::make_unique<SqliteStore>(db);
+  if (existing) {
+    if (StoreResult<bool> intact = store->check_integrity(path); !intact) return intact.error();
+  }
   StoreResult<bool> migrated = store->migrate();
   if (!migrated) return migrated.error();
   return std::unique_ptr<Store>(std::move(store));

@@ -199,6 +199,11 @@ Result<Scene> SceneParser::parse() {
     reader.fail("must be \"" + std::string(kSceneFormat) + "\"", "format");
   }
   scene.name = reader.string("name", "");
+  if (reader.ok() && scene.name.size() > options_.limits.max_name_bytes) {
+    reader.fail("must be at most " + std::to_string(options_.limits.max_name_bytes) +
+                    " bytes of UTF-8, not " + std::to_string(scene.name.size()),
+                "name");
+  }
   scene.seed = static_cast<std::uint32_t>(reader.integer("seed", 0, 0, 0xffffffffLL));
   scene.base_elevation = static_cast<float>(reader.number("base_elevation", 0.0, {-1e5, 1e5}));
   if (reader.has("extent")) {

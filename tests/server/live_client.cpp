@@ -60,6 +60,25 @@ struct LiveClient::Stream {
   }
 };
 
+std::string client_frame(bool fin, int opcode, const std::string& payload) {
+  std::string frame(1, static_cast<char>((fin ? 0x80 : 0x00) | (opcode & 0x0f)));
+  const std::uint64_t length = payload.size();
+  if (length < 126) {
+    frame += static_cast<char>(0x80 | length);
+  } else if (length <= 0xffff) {
+    frame += static_cast<char>(0x80 | 126);
+    for (int shift = 8; shift >= 0; shift -= 8)
+      frame += static_cast<char>((length >> shift) & 0xff);
+  } else {
+    frame += static_cast<char>(0x80 | 127);
+    for (int shift = 56; shift >= 0; shift -= 8) {
+      frame += static_cast<char>((length >> shift) & 0xff);
+    }
+  }
+  frame += std::string(4, '\0');  // the mask key
+  return frame + payload;
+}
+
 LiveClient::LiveClient() : stream_(std::make_unique<Stream>()) {}
 
 LiveClient::LiveClient(int port, const std::string& scene, const Headers& headers,
@@ -80,6 +99,14 @@ int LiveClient::try_open(int port, const std::string& scene, const Headers& head
 void LiveClient::send_text(const std::string& text) {
   stream_->ws.text(true);
   stream_->run([&](Completion done) { stream_->ws.async_write(asio::buffer(text), done); });
+}
+
+bool LiveClient::send_raw(const std::string& bytes, Millis timeout) {
+  return !stream_->run(
+      [&](Completion done) {
+        asio::async_write(stream_->ws.next_layer(), asio::buffer(bytes), done);
+      },
+      timeout);
 }
 
 nlohmann::json LiveClient::next(Millis timeout) {

@@ -17,6 +17,10 @@
 
 namespace http_test {
 
+/// One masked client frame (RFC 6455 §5.2) with a zero mask key, so the payload goes out as it
+/// is: `opcode` 0 continues a message, 1 starts a text one; `fin` ends the message.
+std::string client_frame(bool fin, int opcode, const std::string& payload = "");
+
 class LiveClient {
  public:
   /// Connects and upgrades to /api/v1/scenes/{scene}/live. `receive_buffer` > 0 shrinks the
@@ -33,6 +37,9 @@ class LiveClient {
 
   void send(const nlohmann::json& message) { send_text(message.dump()); }
   void send_text(const std::string& text);
+  /// Writes bytes straight to the socket, below the WebSocket layer (hand-made frames: see
+  /// client_frame). False when the connection failed or `timeout` passed first.
+  bool send_raw(const std::string& bytes, Millis timeout = kIoTimeout);
 
   /// The next message; throws after `timeout` without one, or when the connection ended.
   nlohmann::json next(Millis timeout = kIoTimeout);

@@ -50,7 +50,7 @@ class LiveEditing : public ::testing::Test {
   static void SetUpTestSuite() {
     start({"--live-edits-per-second", "1000", "--live-edit-burst", "1000", "--live-queue-bytes",
            "262144", "--live-handshake-timeout-ms", "1500", "--live-max-message-bytes", "262144",
-           "--live-max-subscribers", "12"});
+           "--live-max-subscribers", "12", "--live-read-bytes-per-second", "67108864"});
   }
   static void TearDownTestSuite() {
     if (server_) server_->stop();
@@ -58,6 +58,17 @@ class LiveEditing : public ::testing::Test {
     dir_.reset();
   }
   int port() const { return server_->port(); }
+  /// terrain_live_oversize_total once it passed `before` (a connection is counted when the
+  /// server has finished with it), or after 5 s.
+  double oversize_counted(double before) const {
+    const auto deadline = Clock::now() + Millis(5000);
+    double now = before;
+    while ((now = metric(port(), "terrain_live_oversize_total")) <= before &&
+           Clock::now() < deadline) {
+      std::this_thread::sleep_for(Millis(20));
+    }
+    return now;
+  }
 
   /// Creates a fresh scene (one per test keeps tests independent).
   std::string create_scene(const std::string& id) const {
@@ -330,18 +341,75 @@ TEST_F(LiveEditing, OversizeMessagesCloseWith1009) {
   for (int shift = 56; shift >= 0; shift -= 8) frame += static_cast<char>((length >> shift) & 0xff);
   frame += std::string(4, '\0');    // mask key
   frame += std::string(1000, 'x');  // the start of the payload
+  const double oversize_before = metric(port(), "terrain_live_oversize_total");
   c.send(frame);
   c.shutdown_write();
   EXPECT_TRUE(c.closed_within(Millis(5000)));
   // A close frame with code 1009 (0x03f1): "message too big".
   EXPECT_EQ(c.received().substr(0, 4), std::string("\x88\x02\x03\xf1", 4));
-  // Counted once the server has finished with the connection.
-  const auto deadline = Clock::now() + Millis(5000);
-  while (metric(port(), "terrain_live_oversize_total") < 1 && Clock::now() < deadline) {
-    std::this_thread::sleep_for(Millis(20));
-  }
-  EXPECT_EQ(metric(port(), "terrain_live_oversize_total"), 1);
+  EXPECT_EQ(oversize_counted(oversize_before), oversize_before + 1);
   EXPECT_EQ(head_version(id), 1);
+}
+
+// Hand-made frames: what one message may take on the wire, frame headers included.
+// The test server's budget: 2 × its 256 KiB message size + 16 KiB (docs/live.md, "Limits").
+constexpr std::size_t kWireBudget = 2 * 262144 + 16384;
+const std::string kPing = R"({"type":"ping"})";
+
+// Empty continuation frames (6 bytes each on the wire), `bytes` of them at most.
+std::string empty_frames(std::size_t bytes) {
+  const std::string one = client_frame(false, 0);
+  std::string frames;
+  frames.reserve(bytes);
+  while (frames.size() + one.size() <= bytes) frames += one;
+  return frames;
+}
+
+TEST_F(LiveEditing, AMessageInManyFramesWithinItsWireBudgetArrives) {
+  const std::string id = create_scene("many-frames");
+  LiveClient client(port(), id);
+  client.subscribe(false);
+  // Nearly the largest message, in 16-byte frames: 1.4 times its size on the wire.
+  const std::string text = kPing + std::string(250000 - kPing.size(), ' ');
+  std::string frames;
+  for (std::size_t at = 0; at < text.size(); at += 16) {
+    frames += client_frame(at + 16 >= text.size(), at == 0 ? 1 : 0, text.substr(at, 16));
+  }
+  ASSERT_TRUE(client.send_raw(frames));
+  EXPECT_EQ(client.next()["type"], "pong");
+  // Empty frames up to just below the budget, then the end of the message.
+  ASSERT_TRUE(client.send_raw(client_frame(false, 1, "{") + empty_frames(kWireBudget - 4096) +
+                              client_frame(true, 0, kPing.substr(1))));
+  EXPECT_EQ(client.next()["type"], "pong");
+}
+
+TEST_F(LiveEditing, AMessageBeyondItsWireBudgetCutsTheConnection) {
+  const std::string id = create_scene("wire-budget");
+  LiveClient client(port(), id);
+  client.subscribe(false);
+  const double oversize_before = metric(port(), "terrain_live_oversize_total");
+  // The server may cut the connection before the last frames are written.
+  (void)client.send_raw(client_frame(false, 1, "{") + empty_frames(kWireBudget + 4096) +
+                        client_frame(true, 0, kPing.substr(1)));
+  EXPECT_EQ(client.close_code(Millis(5000)), 0);  // no pong, no close frame
+  EXPECT_EQ(oversize_counted(oversize_before), oversize_before + 1);
+}
+
+// The attack as it was seen: one message that never ends, 26 million empty frames in 8 s, each
+// parsed by the server.
+TEST_F(LiveEditing, AnEndlessMessageOfEmptyFramesIsCut) {
+  const std::string id = create_scene("endless");
+  LiveClient client(port(), id);
+  client.subscribe(false);
+  ASSERT_TRUE(client.send_raw(client_frame(false, 1, "{")));
+  const std::string burst = empty_frames(60000);
+  std::size_t sent = 0;
+  const auto deadline = Clock::now() + Millis(10000);
+  while (Clock::now() < deadline && client.send_raw(burst, Millis(2000))) sent += burst.size();
+  ASSERT_LT(Clock::now(), deadline) << "the server still reads after " << sent << " bytes";
+  // What got out: the budget, plus what the loopback's socket buffers hold.
+  EXPECT_LT(sent, kWireBudget + (16u << 20));
+  EXPECT_EQ(client.close_code(Millis(5000)), 0);
 }
 
 TEST_F(LiveEditing, AClientThatNeverSubscribesIsClosed) {
@@ -359,12 +427,13 @@ TEST_F(LiveEditing, ANonReadingClientIsCutOffWhileMemoryStaysBounded) {
   fast.subscribe(false);
   const double cut_before = metric(port(), "terrain_live_slow_readers_total");
   double most_owed = 0;
-  // Each version event carries its ops: 200 kB of name per edit, 60 edits = 12 MB of events
-  // for each subscriber, far beyond the 256 kB backlog the test server allows one connection.
+  // Each version event carries its ops: 200 kB of node label per edit, 60 edits = 12 MB of
+  // events for each subscriber, far beyond the 256 kB backlog the test server allows one
+  // connection.
   const std::string padding(200000, 'n');
   for (int i = 0; i < 60; ++i) {
-    author.send(edit(1 + i, json::array({{{"op", "replace"},
-                                          {"path", "/name"},
+    author.send(edit(1 + i, json::array({{{"op", "add"},
+                                          {"path", "/root/children/0/id"},
                                           {"value", padding + std::to_string(i)}}})));
     author.next_of("ack");
     EXPECT_EQ(fast.next_of("version")["version"], 2 + i);
@@ -396,6 +465,26 @@ TEST(LiveLimits, EditsAreRateLimitedPerConnection) {
   author.send(edit(4, set_elevation(0, 99)));
   EXPECT_EQ(author.next_of("reject")["status"], 429);
   EXPECT_EQ(header(get(server.port(), "/api/v1/scenes/rate"), "X-Scene-Version"), "4");
+  server.stop();
+}
+
+// Reads are paced: 112 kB of pings on a server that reads 64 KiB a second of one connection, in
+// bursts of one second's worth (more than one message's wire budget, 2 × 16 KiB + 16 KiB).
+TEST(LiveLimits, WhatOneConnectionSendsIsReadAtTheConfiguredRate) {
+  TempDir dir("live-read-rate");
+  ServerProcess server(dir.path() / "data", {"--write-token", kToken, "--live-max-message-bytes",
+                                             "16384", "--live-read-bytes-per-second", "65536"});
+  const Response created =
+      fetch(server.port(), "POST", "/api/v1/scenes?id=paced", with_token(), quad_scene());
+  ASSERT_EQ(created.result_int(), 201u) << created.body();
+  LiveClient client(server.port(), "paced");
+  client.subscribe(false);
+  const std::string padded_ping = R"({"type":"ping"})" + std::string(16000, ' ');
+  const auto start = Clock::now();
+  for (int i = 0; i < 7; ++i) client.send_text(padded_ping);
+  for (int i = 0; i < 7; ++i) EXPECT_EQ(client.next()["type"], "pong");
+  // 64 KiB at once, the rest a second later; unpaced, a few milliseconds.
+  EXPECT_GE(Clock::now() - start, Millis(800));
   server.stop();
 }
 

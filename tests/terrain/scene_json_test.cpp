@@ -62,6 +62,30 @@ TEST(SceneJson, NonFiniteNumbersInADocumentAreRejected) {
   EXPECT_EQ(scene.error().pointer, "/root/center");
 }
 
+// Every version listing repeats the name: it is bounded in bytes (UTF-8), not characters.
+TEST(SceneJson, NamesLongerThanTheLimitAreRejectedAtName) {
+  auto with_name = [](const std::string& name) {
+    return nlohmann::json{{"name", name},
+                          {"root", {{"type", "disc"}, {"center", {0, 0}}, {"radius", 5}}}};
+  };
+  EXPECT_TRUE(parse_scene(with_name(std::string(256, 'n'))).ok());
+  const Result<Scene> long_name = parse_scene(with_name(std::string(257, 'n')));
+  ASSERT_FALSE(long_name.ok());
+  EXPECT_EQ(long_name.error().pointer, "/name");
+  EXPECT_NE(long_name.error().message.find("at most 256 bytes"), std::string::npos)
+      << long_name.error().message;
+  // 129 two-byte characters are 258 bytes.
+  std::string accented;
+  for (int i = 0; i < 129; ++i) accented += "\u00e9";
+  EXPECT_EQ(parse_scene(with_name(accented)).error().pointer, "/name");
+  const Result<Scene> huge = parse_scene(with_name(std::string(3 << 20, 'n')));
+  ASSERT_FALSE(huge.ok());
+  EXPECT_EQ(huge.error().pointer, "/name");
+  ParseOptions roomy;
+  roomy.limits.max_name_bytes = 300;
+  EXPECT_TRUE(parse_scene(with_name(std::string(257, 'n')), roomy).ok());
+}
+
 struct Malformed {
   const char* name;
   const char* json;

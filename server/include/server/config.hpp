@@ -86,6 +86,9 @@ struct Config {
   double live_edits_per_second = 10.0;  ///< per connection, token bucket
   int live_edit_burst = 20;
   int live_max_subscribers = 256;  ///< per scene
+  /// What one connection may send, frames and all: a token bucket refilled at this rate that
+  /// holds one message's wire budget (2 × live_max_message_bytes + 16 KiB) or one second's worth.
+  std::int64_t live_read_bytes_per_second = 1ll << 20;
   std::string live_redis_url;  ///< replicas hear each other's versions here; empty = one replica
   int live_sweep_ms = 2000;    ///< with live_redis_url: how often followed scenes' heads are read
   // logging

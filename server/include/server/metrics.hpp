@@ -39,7 +39,7 @@ class Metrics {
   std::atomic<std::int64_t> reused_across_versions{0};
   std::atomic<int> live_connections{0};             ///< open live WebSockets
   std::atomic<std::int64_t> live_backlog_bytes{0};  ///< queued for live connections, not yet sent
-  std::atomic<std::int64_t> live_oversize{0};       ///< live connections closed with 1009
+  std::atomic<std::int64_t> live_oversize{0};       ///< closed with 1009, or cut for wire bytes
   std::atomic<std::int64_t> live_slow_readers{0};   ///< live connections cut for their backlog
 
   /// The text exposition format.

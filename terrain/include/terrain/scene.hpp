@@ -29,6 +29,8 @@ struct SceneLimits {
   int max_nodes = 20000;  ///< nodes after instancing is expanded
   std::int64_t max_image_pixels = 16 * 1024 * 1024;
   std::size_t max_pool_floats = 64 * 1024 * 1024;
+  /// The name is a label that every version listing repeats: bounded so a listing stays small.
+  std::size_t max_name_bytes = 256;
 };
 
 struct ParseOptions {
