@@ -268,7 +268,7 @@ void LiveSessions::close_all() {
 }
 
 awaitable<void> serve_live(tcp::socket socket, Request upgrade, LiveConnection connection, App& app,
-                           LiveSessions& sessions) {
+                           LiveSessions& sessions, asio::any_io_executor messages) {
   const Config& config = app.config();
   auto session = std::make_shared<LiveSocket>(std::move(socket), config, app.metrics());
   session->watch_reads();
@@ -312,8 +312,16 @@ awaitable<void> serve_live(tcp::socket socket, Request upgrade, LiveConnection c
           R"({"type":"error","status":400,"title":"Invalid message","detail":"messages are JSON text frames"})"));
     } else {
       const auto data = buffer.cdata();
-      app.live_message(connection,
-                       std::string_view(static_cast<const char*>(data.data()), data.size()));
+      const std::string_view text(static_cast<const char*>(data.data()), data.size());
+      // The reader waits for it, so that the buffer, the connection and the order of messages
+      // stay this coroutine's.
+      co_await asio::co_spawn(
+          messages,
+          [&]() -> awaitable<void> {
+            app.live_message(connection, text);
+            co_return;
+          },
+          use_awaitable);
       session->subscribed = connection.subscribed;
     }
     buffer.consume(buffer.size());

@@ -6,6 +6,7 @@
 #include <memory>
 #include <mutex>
 
+#include <boost/asio/any_io_executor.hpp>
 #include <boost/asio/awaitable.hpp>
 #include <boost/asio/ip/tcp.hpp>
 
@@ -29,8 +30,10 @@ class LiveSessions {
 
 /// Serves a live channel on `socket`, whose upgrade request `upgrade` App::live_open accepted
 /// as `connection`: completes the WebSocket handshake, then runs until either side closes.
+/// Messages are handled on `messages` (an edit parses and compiles a scene version, decoding
+/// its images: work kept off the I/O threads), one at a time per connection, in order.
 boost::asio::awaitable<void> serve_live(boost::asio::ip::tcp::socket socket, Request upgrade,
-                                        LiveConnection connection, App& app,
-                                        LiveSessions& sessions);
+                                        LiveConnection connection, App& app, LiveSessions& sessions,
+                                        boost::asio::any_io_executor messages);
 
 }  // namespace server

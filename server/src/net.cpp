@@ -144,6 +144,9 @@ struct HttpServer::State {
   std::vector<std::unique_ptr<Worker>> workers;
   asio::thread_pool generation;
   PicturePool pictures;
+  // Live messages: an edit parses and compiles a version (docs/live.md); apart from the tiles'
+  // queue, so that edits are not held behind tiles.
+  asio::thread_pool live_messages{2};
   tcp::acceptor acceptor;  // on workers[0], which runs the accept loop and closes it
   std::atomic<bool> stopping{false};
   std::size_t next_worker = 0;
@@ -545,7 +548,7 @@ struct HttpServer::State {
         worker.open.erase(everywhere);  // the live socket closes itself at shutdown
         set_idle(false);
         co_await serve_live(std::move(*stream), std::move(upgrade), std::move(opened).value(), app,
-                            live_sessions);
+                            live_sessions, live_messages.get_executor());
         co_return;
       }
       // Before a byte of the body: framing that could smuggle a request, the route's limit, the
@@ -721,6 +724,7 @@ void HttpServer::run() {
   for (std::thread& t : threads) t.join();
   state_->generation.join();
   state_->pictures.join();
+  state_->live_messages.join();
   state_->shutdown_closer.request_stop();
   if (state_->shutdown_closer.joinable()) state_->shutdown_closer.join();
 }
