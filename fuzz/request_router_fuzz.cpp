@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <string>
 
+#include "server/admission.hpp"
 #include "server/app.hpp"
 
 namespace {
@@ -50,7 +51,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string rest = a == std::string::npos ? "" : text.substr(a + 1);
   const std::size_t b = rest.find('\n');
   server::Request request{verb, target, 11};
-  request.set(http::field::if_none_match, rest.substr(0, b));
+  // The header line also stands for the fields the session and the handler parse themselves.
+  const std::string field = rest.substr(0, b);
+  request.set(http::field::if_none_match, field);
+  request.set(http::field::host, field);
+  request.set(http::field::transfer_encoding, field);
+  (void)server::check_framing(request.base());
   request.set(http::field::authorization, "Bearer token");
   request.body() = b == std::string::npos ? "" : rest.substr(b + 1);
   request.prepare_payload();

@@ -1,5 +1,7 @@
 #include "terrain/json_text.hpp"
 
+#include "field_reader.hpp"
+
 #include <string>
 #include <vector>
 
@@ -23,21 +25,9 @@ std::string pointer_of(const std::vector<Frame>& frames) {
     if (frames[i].object && !frames[i].key.empty()) last_member = i + 1;
   }
   std::string pointer;
-  for (std::size_t i = 0; i + 1 <= last_member && i < frames.size(); ++i) {
-    pointer += '/';
-    if (!frames[i].object) {
-      pointer += std::to_string(frames[i].index);
-      continue;
-    }
-    for (const char c : frames[i].key) {
-      if (c == '~') {
-        pointer += "~0";
-      } else if (c == '/') {
-        pointer += "~1";
-      } else {
-        pointer += c;
-      }
-    }
+  for (std::size_t i = 0; i < last_member; ++i) {
+    pointer = frames[i].object ? pointer_join(pointer, frames[i].key)
+                               : pointer_join(pointer, frames[i].index);
   }
   return pointer;
 }

@@ -9,29 +9,18 @@
 #include <future>
 #include <memory>
 
-#include "http_harness.hpp"
 #include "live_client.hpp"
+#include "server_per_test.hpp"
 #include "terrain/image_io.hpp"
 
 namespace http_test {
 namespace {
 
 /// A server of its own with the given extra flags, started per test.
-class HostileClients : public ::testing::Test {
+class HostileClients : public ServerPerTest {
  protected:
-  void start(std::vector<std::string> flags) {
-    flags.insert(flags.end(), {"--write-token", kToken});
-    server_ = std::make_unique<ServerProcess>(dir_.path() / "data", flags);
-    port_ = server_->port();
-  }
-  void TearDown() override {
-    if (server_) server_->stop();
-  }
+  HostileClients() : ServerPerTest("hostile") {}
   bool alive() { return get(port_, "/healthz").result_int() == 200; }
-
-  TempDir dir_{"hostile"};
-  std::unique_ptr<ServerProcess> server_;
-  int port_ = 0;
 };
 
 std::string nested_arrays(std::size_t depth) {

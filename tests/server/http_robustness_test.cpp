@@ -9,7 +9,7 @@
 #include <memory>
 #include <mutex>
 
-#include "http_harness.hpp"
+#include "server_per_test.hpp"
 #include "terrain/image_io.hpp"
 
 namespace http_test {
@@ -24,20 +24,9 @@ std::string heavy_tile(int n) {
 }
 
 /// A server of its own with the given extra flags, started per test.
-class HttpLimits : public ::testing::Test {
+class HttpLimits : public ServerPerTest {
  protected:
-  void start(std::vector<std::string> flags) {
-    flags.insert(flags.end(), {"--write-token", kToken});
-    server_ = std::make_unique<ServerProcess>(dir_.path() / "data", flags);
-    port_ = server_->port();
-  }
-  void TearDown() override {
-    if (server_) server_->stop();
-  }
-
-  TempDir dir_{"limits"};
-  std::unique_ptr<ServerProcess> server_;
-  int port_ = 0;
+  HttpLimits() : ServerPerTest("limits") {}
 };
 
 // ---------------------------------------------------------------------------------------------
