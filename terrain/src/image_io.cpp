@@ -190,6 +190,39 @@ std::string normalise_hint(std::string_view hint) {
   return text;
 }
 
+// Refuses PNG bytes whose chunks do not run whole from the signature to IEND, before OIIO reads
+// them: OIIO 2.4's PNG reader leaks its error message (PNGInput::PngReadCallback builds a
+// std::string that libpng's longjmp then skips) each time libpng reads past the end of the data,
+// so a cut-short upload must not get that far.
+Status check_png_chunks(std::span<const std::uint8_t> bytes, const std::string& what) {
+  static constexpr std::uint8_t kSignature[] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
+  if (bytes.size() < std::size(kSignature) ||
+      !std::equal(std::begin(kSignature), std::end(kSignature), bytes.begin())) {
+    return fail(what + ": not a PNG (no PNG signature)");
+  }
+  std::size_t at = std::size(kSignature);
+  while (true) {
+    // Each chunk: a 4-byte length, a 4-byte type, the data, a 4-byte CRC.
+    if (bytes.size() - at < 12) {
+      return fail(what + ": the PNG is cut short at byte " + std::to_string(at) +
+                  " (no IEND chunk)");
+    }
+    const std::uint32_t length = std::uint32_t{bytes[at]} << 24 |
+                                 std::uint32_t{bytes[at + 1]} << 16 |
+                                 std::uint32_t{bytes[at + 2]} << 8 | std::uint32_t{bytes[at + 3]};
+    const std::string type(reinterpret_cast<const char*>(bytes.data() + at + 4), 4);
+    const bool named = std::all_of(type.begin(), type.end(), [](char c) {
+      return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
+    });
+    if (bytes.size() - at - 12 < length) {
+      return fail(what + ": the PNG is cut short: its " + (named ? type + " chunk" : "chunk") +
+                  " at byte " + std::to_string(at) + " runs past the end of the data");
+    }
+    if (type == "IEND") return Ok{};
+    at += 12 + std::size_t{length};
+  }
+}
+
 Result<Raster> decode_impl(std::span<const std::uint8_t> bytes, std::string_view format_hint,
                            const ReadLimits& limits) {
   const std::string what = "image data";
@@ -198,6 +231,9 @@ Result<Raster> decode_impl(std::span<const std::uint8_t> bytes, std::string_view
   if (format.empty()) format = normalise_hint(format_hint);
   if (format.empty()) {
     return fail(what + ": not recognised as PNG, TIFF or OpenEXR, and no format hint given");
+  }
+  if (format == "png") {
+    if (Status whole = check_png_chunks(bytes, what); !whole) return whole.error();
   }
   // create() with a bare format name or extension makes a reader without opening anything.
   auto in = OIIO::ImageInput::create(format);

@@ -277,7 +277,8 @@ TEST(ImageIoMalformed, RefusedWithClearErrors) {
   EXPECT_NE(none.error().message.find("does-not-exist.png"), std::string::npos)
       << none.error().message;
 
-  // Truncated PNG bytes: cut in the header, and cut in the pixel data.
+  // Truncated PNG bytes: cut in the header, and cut in the pixel data. They are refused before
+  // OpenImageIO reads them (its PNG reader leaks memory when it reads past the end).
   std::vector<std::uint16_t> words(200 * 200);
   for (std::size_t k = 0; k < words.size(); ++k)
     words[k] = static_cast<std::uint16_t>(k * 2654435761u >> 16);
@@ -286,8 +287,28 @@ TEST(ImageIoMalformed, RefusedWithClearErrors) {
     const std::vector<std::uint8_t> cut(png.begin(), png.begin() + static_cast<long>(keep));
     const Result<Raster> r = decode_heightfield(cut, "png");
     ASSERT_FALSE(r.ok()) << "kept " << keep << " of " << png.size();
-    EXPECT_FALSE(r.error().message.empty());
+    EXPECT_NE(r.error().message.find("the PNG is cut short"), std::string::npos)
+        << r.error().message;
   }
+  const std::string_view text_of_png(reinterpret_cast<const char*>(png.data()), png.size());
+  const std::size_t idat = text_of_png.find("IDAT") - 4;  // the chunk starts with its length
+  const std::vector<std::uint8_t> in_idat(png.begin(), png.begin() + static_cast<long>(idat + 40));
+  EXPECT_NE(
+      decode_heightfield(in_idat, "png")
+          .error()
+          .message.find("its IDAT chunk at byte " + std::to_string(idat) + " runs past the end"),
+      std::string::npos)
+      << decode_heightfield(in_idat, "png").error().message;
+  // Whole chunks with the IEND chunk missing, and a PNG hint on bytes that are no PNG.
+  const std::size_t iend = png.size() - 12;
+  EXPECT_NE(decode_heightfield(std::vector<std::uint8_t>(png.begin(), png.begin() + iend), "png")
+                .error()
+                .message.find("no IEND chunk"),
+            std::string::npos);
+  EXPECT_NE(decode_heightfield(std::vector<std::uint8_t>{1, 2, 3}, "image/png")
+                .error()
+                .message.find("not a PNG"),
+            std::string::npos);
   // A truncated file too.
   write_file(dir.file("cut.png"), std::vector<std::uint8_t>(png.begin(), png.begin() + 100));
   EXPECT_FALSE(read_heightfield(dir.file("cut.png")).ok());
