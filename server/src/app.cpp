@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -1004,8 +1005,11 @@ Response App::authorize(const Request& request) const {
 }
 
 terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> App::parse_stored(
-    const std::string& text) {
+    const std::string& text, SceneSource source) {
   terrain::ParseOptions options;
+  if (source == SceneSource::stored) {
+    options.limits.max_name_bytes = std::numeric_limits<std::size_t>::max();
+  }
   // Every image node packs its own copy of its pixels into the program, so the bound counts
   // each use; decoding is done once per image (decoded_image).
   std::int64_t pixels = 0;
@@ -1052,8 +1056,9 @@ terrain::Result<std::shared_ptr<const terrain::Raster>> App::decoded_image(
   return shared;
 }
 
-terrain::Result<LoadedVersion, terrain::Error> App::compile_scene(const std::string& text) {
-  auto scene = parse_stored(text);
+terrain::Result<LoadedVersion, terrain::Error> App::compile_scene(const std::string& text,
+                                                                  SceneSource from) {
+  auto scene = parse_stored(text, from);
   if (!scene) return scene.error();
   // Compiled as every product will compile it: a scene that is stored can always be served.
   terrain::Result<terrain::TileSource> source = terrain::TileSource::from_scene(**scene);
@@ -1082,7 +1087,8 @@ terrain::Result<LoadedVersion, Response> App::load_version(const Request& reques
       return loaded;
     }
   }
-  terrain::Result<LoadedVersion, terrain::Error> compiled = compile_scene(version.canonical_json);
+  terrain::Result<LoadedVersion, terrain::Error> compiled =
+      compile_scene(version.canonical_json, SceneSource::stored);
   if (!compiled) {
     return problem(request, http::status::internal_server_error, "Stored scene unreadable",
                    compiled.error().message, compiled.error().pointer);

@@ -194,6 +194,10 @@ class App {
   terrain::Result<LoadedPlanet, Response> resolve_planet(const Request& request,
                                                          const std::string& ref);
 
+  /// How a scene text is read: as new input (every limit of today), or as a version stored
+  /// already, which was valid when it was written and must stay readable (limits added since,
+  /// such as the name's length, are not applied to it).
+  enum class SceneSource { input, stored };
   terrain::Result<LoadedVersion, Response> resolve(const Request& request, const std::string& ref);
   /// The scheme and authority absolute URLs start with: server.public_url when set, else
   /// "http://" and the request's Host once validated (400 naming /headers/host otherwise).
@@ -205,7 +209,8 @@ class App {
   Outcome off_io_thread(const Request& request, std::function<Response(const Request&)> work);
   /// A scene's text parsed (images decoded once per hash, within limits.scene_image_pixels) and
   /// compiled; the version is left for the caller to fill in.
-  terrain::Result<LoadedVersion, terrain::Error> compile_scene(const std::string& text);
+  terrain::Result<LoadedVersion, terrain::Error> compile_scene(
+      const std::string& text, SceneSource source = SceneSource::input);
   /// A request body's scene checked as it will be read back: its canonical form compiled.
   terrain::Result<LoadedVersion, Response> compile_for_storing(const Request& request);
   /// Keeps a compiled version for the products of its hash (bounded).
@@ -215,7 +220,7 @@ class App {
   terrain::Result<LoadedVersion, Response> load_version(const Request& request,
                                                         const SceneVersion& version);
   terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> parse_stored(
-      const std::string& json);
+      const std::string& json, SceneSource source = SceneSource::input);
 
   Config config_;
   std::unique_ptr<Store> store_;
