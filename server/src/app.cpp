@@ -50,7 +50,6 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 using terrain::Error;
 
-constexpr std::size_t kLoadedVersions = 64;  // compiled scene versions kept in memory
 constexpr std::size_t kMakersPerThread = 8;  // per-thread product makers (evaluators)
 // Built planets kept in memory (each holds its base mesh, a few MiB), and per generation thread
 // the PlanetTiles and Samplers that cache refined triangles (up to ~200 MiB each when deep tiles
@@ -109,13 +108,7 @@ std::string percent_decode(std::string_view in, bool plus_is_space, bool& ok) {
   return out;
 }
 
-template <class T>
-std::optional<T> parse_integer(std::string_view text) {
-  T v{};
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
-  if (ec != std::errc() || end != text.data() + text.size() || text.empty()) return std::nullopt;
-  return v;
-}
+using detail::parse_integer;
 
 std::optional<double> parse_double(std::string_view text) {
   double v = 0;
@@ -1004,182 +997,6 @@ Response App::authorize(const Request& request) const {
   return ok;
 }
 
-terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> App::parse_stored(
-    const std::string& text, SceneSource source) {
-  terrain::ParseOptions options;
-  if (source == SceneSource::stored) {
-    options.limits.max_name_bytes = std::numeric_limits<std::size_t>::max();
-  }
-  // Every image node packs its own copy of its pixels into the program, so the bound counts
-  // each use; decoding is done once per image (decoded_image).
-  std::int64_t pixels = 0;
-  options.images = [this, &pixels](std::string_view reference) -> terrain::Result<terrain::Raster> {
-    if (!reference.starts_with("sha256:")) {
-      return Error{"images are referenced by the hash of an uploaded image (POST /api/v1/images)",
-                   ""};
-    }
-    Result<std::shared_ptr<const terrain::Raster>> raster = decoded_image(std::string(reference));
-    if (!raster) return raster.error();
-    pixels += static_cast<std::int64_t>((*raster)->width) * (*raster)->height;
-    if (pixels > config_.scene_image_pixels) {
-      return Error{"the scene's image nodes add up to more than " +
-                       std::to_string(config_.scene_image_pixels) +
-                       " decoded pixels (limits.scene_image_pixels)",
-                   ""};
-    }
-    return **raster;
-  };
-  terrain::Result<terrain::Scene> scene = terrain::parse_scene_text(text, options);
-  if (!scene) return scene.error();
-  return std::make_shared<const terrain::Scene>(std::move(scene).value());
-}
-
-terrain::Result<std::shared_ptr<const terrain::Raster>> App::decoded_image(
-    const std::string& hash) {
-  {
-    std::lock_guard lock(images_mutex_);
-    if (auto it = decoded_.find(hash); it != decoded_.end()) return it->second;
-  }
-  StoreResult<Blob> blob = store_->blob(hash);
-  if (!blob) return Error{blob.error().message, ""};
-  Result<terrain::Raster> raster = terrain::decode_heightfield(blob->bytes, blob->media_type);
-  if (!raster) return raster.error();
-  auto shared = std::make_shared<const terrain::Raster>(std::move(raster).value());
-  const std::int64_t size = static_cast<std::int64_t>(shared->width) * shared->height;
-  std::lock_guard lock(images_mutex_);
-  // Bounded by pixels: twice what one scene may use, forgotten all at once beyond.
-  if (decoded_pixels_ + size > 2 * config_.scene_image_pixels) {
-    decoded_.clear();
-    decoded_pixels_ = 0;
-  }
-  if (decoded_.emplace(hash, shared).second) decoded_pixels_ += size;
-  return shared;
-}
-
-terrain::Result<LoadedVersion, terrain::Error> App::compile_scene(const std::string& text,
-                                                                  SceneSource from) {
-  auto scene = parse_stored(text, from);
-  if (!scene) return scene.error();
-  // Compiled as every product will compile it: a scene that is stored can always be served.
-  terrain::Result<terrain::TileSource> source = terrain::TileSource::from_scene(**scene);
-  if (!source) return source.error();
-  LoadedVersion loaded;
-  loaded.source = std::make_shared<const terrain::TileSource>(std::move(source).value());
-  loaded.scene = *scene;
-  return loaded;
-}
-
-void App::keep_loaded(const LoadedVersion& loaded) {
-  std::lock_guard lock(versions_mutex_);
-  if (loaded_.size() >= kLoadedVersions) loaded_.clear();
-  loaded_.insert_or_assign(loaded.version.hash, loaded);
-}
-
-terrain::Result<LoadedVersion, Response> App::load_version(const Request& request,
-                                                           const SceneVersion& version) {
-  {
-    std::lock_guard lock(versions_mutex_);
-    auto it = loaded_.find(version.hash);
-    if (it != loaded_.end()) {
-      LoadedVersion loaded = it->second;
-      loaded.version = version;
-      loaded.version.canonical_json.clear();  // the parsed scene holds it
-      return loaded;
-    }
-  }
-  terrain::Result<LoadedVersion, terrain::Error> compiled =
-      compile_scene(version.canonical_json, SceneSource::stored);
-  if (!compiled) {
-    return problem(request, http::status::internal_server_error, "Stored scene unreadable",
-                   compiled.error().message, compiled.error().pointer);
-  }
-  LoadedVersion loaded = std::move(compiled).value();
-  loaded.version = version;
-  loaded.version.canonical_json.clear();  // the parsed scene holds it
-  keep_loaded(loaded);
-  return loaded;
-}
-
-terrain::Result<LoadedVersion, Response> App::resolve(const Request& request,
-                                                      const std::string& ref) {
-  const std::size_t at = ref.find('@');
-  const std::string id = ref.substr(0, at);
-  if (!valid_id(id)) {
-    return problem(request, http::status::bad_request, "Bad scene id",
-                   "scene ids are 1 to 64 characters of a-z, 0-9, '-' and '_'", "/id");
-  }
-  // The ref in one spelling ("id@7" for "id@07"), so that re-spellings share one entry of the
-  // bounded memo below instead of evicting the others.
-  const bool pinned = at != std::string::npos;
-  std::string key = id;
-  std::optional<std::int64_t> number;
-  if (pinned) {
-    const std::string token = ref.substr(at + 1);
-    if (token.starts_with("sha256:") && token.size() == 71 &&
-        token.find_first_not_of("0123456789abcdef", 7) == std::string::npos) {
-      key = id + "@" + token;
-    } else if (auto n = parse_integer<std::int64_t>(token); n && *n >= 1) {
-      number = *n;
-      key = id + "@" + std::to_string(*n);
-    } else {
-      return problem(request, http::status::bad_request, "Bad version",
-                     "a version is a number from 1 or a sha256: hash (64 lower-case hex digits)",
-                     "/version");
-    }
-  }
-  // Pinned refs name immutable versions: once resolved, never asked of the store again. Head
-  // refs are remembered for a second (their responses say max-age=5 anyway) and forgotten at
-  // once when this server writes a new version.
-  const auto now = std::chrono::steady_clock::now();
-  {
-    std::lock_guard lock(versions_mutex_);
-    if (auto it = resolved_.find(key); it != resolved_.end()) {
-      if (pinned || now - it->second.second < std::chrono::seconds(1)) return it->second.first;
-      resolved_.erase(it);
-    }
-  }
-  auto remember = [&](terrain::Result<LoadedVersion, Response> loaded) {
-    if (loaded) {
-      std::lock_guard lock(versions_mutex_);
-      if (resolved_.size() >= 4096) resolved_.clear();
-      resolved_[key] = {*loaded, now};
-    }
-    return loaded;
-  };
-  StoreResult<SceneVersion> version = StoreError{};
-  if (!pinned) {
-    version = store_->head(id);
-  } else if (number) {
-    version = store_->version(id, *number);
-  } else {
-    version = store_->version_by_hash(id, ref.substr(at + 1));
-  }
-  if (!version) return store_problem(request, version.error());
-  return remember(load_version(request, *version));
-}
-
-bool App::is_loaded(const std::string& ref) {
-  const std::size_t at = ref.find('@');
-  std::string key = ref;
-  if (at != std::string::npos) {
-    if (auto n = parse_integer<std::int64_t>(std::string_view(ref).substr(at + 1))) {
-      key = ref.substr(0, at) + "@" + std::to_string(*n);
-    }
-  }
-  std::lock_guard lock(versions_mutex_);
-  const auto it = resolved_.find(key);
-  // A head ref remembered more than a second ago may have moved to a version not loaded yet.
-  return it != resolved_.end() &&
-         (at != std::string::npos ||
-          std::chrono::steady_clock::now() - it->second.second < std::chrono::seconds(1)) &&
-         loaded_.contains(it->second.first.version.hash);
-}
-
-void App::forget_head(const std::string& id) {
-  std::lock_guard lock(versions_mutex_);
-  resolved_.erase(id);
-}
-
 Response App::list_scenes(const Request& request) {
   StoreResult<std::vector<SceneSummary>> scenes = store_->list_scenes();
   if (!scenes) return store_problem(request, scenes.error());
@@ -1194,23 +1011,6 @@ Response App::list_scenes(const Request& request) {
   Response r = json_response(request, http::status::ok, {{"scenes", list}});
   r.set(http::field::cache_control, "no-cache");
   return r;
-}
-
-terrain::Result<LoadedVersion, Response> App::compile_for_storing(const Request& request) {
-  auto parsed = parse_stored(request.body());
-  if (!parsed) {
-    return problem(request, http::status::bad_request, "Invalid scene", parsed.error().message,
-                   parsed.error().pointer);
-  }
-  // What is stored is the canonical text, and it is what every later read parses and compiles:
-  // check that, so that a stored scene can always be served (limits included).
-  auto compiled = compile_scene((*parsed)->canonical_text());
-  if (!compiled) {
-    return problem(request, http::status::bad_request, "Invalid scene",
-                   "the scene in its canonical form: " + compiled.error().message,
-                   compiled.error().pointer);
-  }
-  return std::move(compiled).value();
 }
 
 Response App::create_scene(const Request& request, const Target& target) {

@@ -1,7 +1,9 @@
 // What app.cpp shares with the other files of the App (app_live.cpp).
 #pragma once
 
+#include <charconv>
 #include <map>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -30,6 +32,15 @@ namespace server::detail {
 /// JSON the server reads back (stored rows, events from other replicas) with the same bounds as
 /// request bodies (terrain::parse_json_text); a discarded value when refused.
 nlohmann::json parse_bounded_json(std::string_view text);
+
+/// A whole decimal integer of type T, or nullopt (no sign but '-', no spaces, no suffix).
+template <class T>
+std::optional<T> parse_integer(std::string_view text) {
+  T v{};
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc() || end != text.data() + text.size() || text.empty()) return std::nullopt;
+  return v;
+}
 
 /// Scene ids: 1 to 64 characters of a-z, 0-9, '-' and '_'.
 bool valid_id(std::string_view id);

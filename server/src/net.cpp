@@ -159,7 +159,28 @@ struct HttpServer::State {
   // Shutdown: once the grace period has passed, every connection still open is closed.
   std::mutex shutdown_mutex;
   std::condition_variable_any shutdown_wake;
-  std::jthread shutdown_closer;
+  bool shutting_down = false;  // guarded by shutdown_mutex
+
+  // Runs for the life of run(): once stop() is called, waits out the grace period, then closes
+  // every HTTP connection still open (each on its worker's thread).
+  void close_after_grace(std::stop_token stop) {
+    std::unique_lock lock(shutdown_mutex);
+    if (!shutdown_wake.wait(lock, stop, [this] { return shutting_down; })) return;
+    shutdown_wake.wait_for(lock, stop, std::chrono::milliseconds(config.shutdown_timeout_ms),
+                           [] { return false; });
+    if (stop.stop_requested()) return;
+    log(LogLevel::info, "shutdown grace period over", {{"ms", config.shutdown_timeout_ms}});
+    for (auto& worker : workers) {
+      asio::post(worker->io, [w = worker.get()] {
+        for (auto& weak : w->open) {
+          if (auto stream = weak.lock()) {
+            boost::system::error_code ignored;
+            stream->close(ignored);
+          }
+        }
+      });
+    }
+  }
 
   State(App& a, const Config& c)
       : app(a),
@@ -716,6 +737,7 @@ void HttpServer::run() {
   std::signal(SIGPIPE, SIG_IGN);
   auto& workers = state_->workers;
   asio::co_spawn(workers[0]->io, state_->accept_loop(), asio::detached);
+  std::jthread closer([s = state_.get()](std::stop_token stop) { s->close_after_grace(stop); });
   std::vector<std::thread> threads;
   for (std::size_t i = 1; i < workers.size(); ++i) {
     threads.emplace_back([&worker = *workers[i]] { worker.io.run(); });
@@ -725,8 +747,7 @@ void HttpServer::run() {
   state_->generation.join();
   state_->pictures.join();
   state_->live_messages.join();
-  state_->shutdown_closer.request_stop();
-  if (state_->shutdown_closer.joinable()) state_->shutdown_closer.join();
+  closer.request_stop();  // everything has drained: no grace period left to wait out
 }
 
 void HttpServer::stop() {
@@ -749,25 +770,13 @@ void HttpServer::stop() {
       w->keep_running.reset();  // run() returns once the sessions in flight have finished
     });
   }
-  // In-flight requests get a grace period; a client that does not read its answer does not
-  // hold the shutdown for the whole write timeout.
-  s->shutdown_closer = std::jthread([s](std::stop_token stop) {
-    std::unique_lock lock(s->shutdown_mutex);
-    s->shutdown_wake.wait_for(lock, stop, std::chrono::milliseconds(s->config.shutdown_timeout_ms),
-                              [] { return false; });
-    if (stop.stop_requested()) return;
-    log(LogLevel::info, "shutdown grace period over", {{"ms", s->config.shutdown_timeout_ms}});
-    for (auto& worker : s->workers) {
-      asio::post(worker->io, [w = worker.get()] {
-        for (auto& weak : w->open) {
-          if (auto stream = weak.lock()) {
-            boost::system::error_code ignored;
-            stream->close(ignored);
-          }
-        }
-      });
-    }
-  });
+  // In-flight requests get a grace period (close_after_grace); a client that does not read its
+  // answer does not hold the shutdown for the whole write timeout.
+  {
+    std::lock_guard lock(s->shutdown_mutex);
+    s->shutting_down = true;
+  }
+  s->shutdown_wake.notify_all();
 }
 
 }  // namespace server
