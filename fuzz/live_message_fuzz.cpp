@@ -67,9 +67,8 @@ void create_scene(server::App& app) {
   post.set(boost::beast::http::field::authorization, "Bearer token");
   post.body() = std::string(kScene);
   post.prepare_payload();
-  const server::Outcome created = app.handle(post);
-  const auto* response = std::get_if<server::Response>(&created);
-  if (response == nullptr || response->result_int() != 201) std::abort();  // the harness is broken
+  // Writes are deferred to the generation pool; here they run on this thread.
+  if (server::settle(app, post).result_int() != 201) std::abort();  // the harness is broken
 }
 
 server::LiveConnection open(server::App& app) {

@@ -516,7 +516,9 @@ Response problem(const Request& request, http::status status, std::string_view t
             {"status", static_cast<int>(status)},
             {"detail", escape_invalid_utf8(detail)}};
   if (!pointer.empty()) body["pointer"] = escape_invalid_utf8(pointer);
-  Response r = make_response(request, status, body.dump(), "application/problem+json");
+  Response r =
+      make_response(request, status, body.dump(-1, ' ', false, json::error_handler_t::replace),
+                    "application/problem+json");
   r.set(http::field::cache_control, "no-store");
   return r;
 }

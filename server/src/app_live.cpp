@@ -27,22 +27,32 @@ constexpr std::size_t kSceneChanges = 64;
 // The longest tile list one /changes answer carries (then "truncated": true).
 constexpr std::size_t kMaxChangedTiles = 4096;
 
+// A message must never fail to serialise: strings that are not UTF-8 (never expected here, as
+// details are escaped below) become U+FFFD rather than an exception.
 std::shared_ptr<const std::string> text(const json& message) {
-  return std::make_shared<const std::string>(message.dump());
+  return std::make_shared<const std::string>(
+      message.dump(-1, ' ', false, json::error_handler_t::replace));
 }
 
+// Details may quote what the client sent (a parser's message does): bytes that are not UTF-8
+// are written as \xHH, as in HTTP problems.
 json error_message(int status, std::string_view title, std::string_view detail,
                    std::string_view pointer) {
-  json m = {{"type", "error"}, {"status", status}, {"title", title}, {"detail", detail}};
-  if (!pointer.empty()) m["pointer"] = pointer;
+  json m = {{"type", "error"},
+            {"status", status},
+            {"title", title},
+            {"detail", escape_invalid_utf8(detail)}};
+  if (!pointer.empty()) m["pointer"] = escape_invalid_utf8(pointer);
   return m;
 }
 
 json reject_message(const json& request_id, const EditRejection& why) {
-  json m = {
-      {"type", "reject"}, {"status", why.status}, {"title", why.title}, {"detail", why.detail}};
+  json m = {{"type", "reject"},
+            {"status", why.status},
+            {"title", why.title},
+            {"detail", escape_invalid_utf8(why.detail)}};
   if (!request_id.is_null()) m["request"] = request_id;
-  if (!why.pointer.empty()) m["pointer"] = why.pointer;
+  if (!why.pointer.empty()) m["pointer"] = escape_invalid_utf8(why.pointer);
   return m;
 }
 

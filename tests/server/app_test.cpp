@@ -239,5 +239,30 @@ TEST_F(AppTest, HeadRefTilesFollowNewVersions) {
             v1[http::field::etag]);
 }
 
+// What a live connection is sent, kept for the test to read.
+class CollectedReplies final : public LiveSubscriber {
+ public:
+  void deliver(std::shared_ptr<const std::string> message) override {
+    messages.push_back(std::move(message));
+  }
+  std::vector<std::shared_ptr<const std::string>> messages;
+};
+
+// Found by live_message_fuzz: a parser's message quoting bytes that are not UTF-8 made the
+// error reply's serialisation throw, ending the process.
+TEST_F(AppTest, LiveMessagesThatAreNotUtf8AreAnsweredWithTheBytesEscaped) {
+  Request upgrade{http::verb::get, "/api/v1/scenes/hills-river/live", 11};
+  auto connection = app_->live_open(upgrade);
+  ASSERT_TRUE(connection);
+  auto replies = std::make_shared<CollectedReplies>();
+  connection->self = replies;
+  EXPECT_NO_THROW(app_->live_message(*connection, "{\"\x8c\x86\": 1"));
+  ASSERT_EQ(replies->messages.size(), 1u);
+  const nlohmann::json reply = nlohmann::json::parse(*replies->messages[0]);
+  EXPECT_EQ(reply["type"], "error");
+  EXPECT_NE(reply["detail"].get<std::string>().find("\\x8C"), std::string::npos) << reply.dump();
+  app_->live_close(*connection);
+}
+
 }  // namespace
 }  // namespace server
