@@ -1478,8 +1478,7 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
       bits(camera.target.z) + bits(camera.vertical_fov_degrees) + bits(options.water_level) + "/" +
       std::to_string(config_.picture_steps_per_pixel);
   const ReplyContext reply =
-      ReplyContext::of(request, pinned ? "public, max-age=31536000, immutable"
-                                       : "public, max-age=5, must-revalidate");
+      ReplyContext::of(request, pinned ? kImmutable : "public, max-age=5, must-revalidate");
   auto respond = [reply, depth, width, height](const std::shared_ptr<const CachedProduct>& p) {
     Response r = product_response(reply, p);
     if (depth) r.set("X-Picture-Size", std::to_string(width) + "x" + std::to_string(height));

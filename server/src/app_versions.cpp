@@ -2,6 +2,7 @@
 // from refs; and a request body's scene checked as it will be read back before it is stored.
 #include <chrono>
 #include <limits>
+#include <optional>
 
 #include "app_support.hpp"
 #include "server/app.hpp"
@@ -9,17 +10,53 @@
 #include "terrain/scene.hpp"
 
 namespace server {
-namespace {
-
-constexpr std::size_t kLoadedVersions = 64;  // compiled scene versions kept in memory
-
-}  // namespace
 
 using detail::parse_integer;
 using detail::store_problem;
 using detail::valid_id;
 using terrain::Error;
 using terrain::Result;
+
+namespace {
+
+constexpr std::size_t kLoadedVersions = 64;  // compiled scene versions kept in memory
+
+// A scene ref taken apart, its version in one spelling ("id@7" for "id@07"), so that re-spellings
+// share one entry of the bounded memo of resolved refs instead of evicting the others.
+struct ParsedRef {
+  std::string id;
+  std::string key;  ///< the memo's key: "id", "id@7" or "id@sha256:…"
+  bool pinned = false;
+  std::optional<std::int64_t> number;  ///< pinned by number; else by hash (when pinned)
+};
+
+/// Nullopt when the version is neither a number from 1 nor "sha256:" and 64 lower-case hex
+/// digits; the id is not checked here.
+std::optional<ParsedRef> parse_ref(const std::string& ref) {
+  const std::size_t at = ref.find('@');
+  ParsedRef parsed{ref.substr(0, at), ref.substr(0, at), at != std::string::npos, std::nullopt};
+  if (!parsed.pinned) return parsed;
+  const std::string token = ref.substr(at + 1);
+  if (token.starts_with("sha256:") && token.size() == 71 &&
+      token.find_first_not_of("0123456789abcdef", 7) == std::string::npos) {
+    parsed.key += "@" + token;
+  } else if (auto n = parse_integer<std::int64_t>(token); n && *n >= 1) {
+    parsed.number = *n;
+    parsed.key += "@" + std::to_string(*n);
+  } else {
+    return std::nullopt;
+  }
+  return parsed;
+}
+
+// Pinned refs name immutable versions: once resolved, never asked of the store again. Head refs
+// are remembered for a second (their responses say max-age=5 anyway).
+bool still_fresh(bool pinned, std::chrono::steady_clock::time_point remembered,
+                 std::chrono::steady_clock::time_point now) {
+  return pinned || now - remembered < std::chrono::seconds(1);
+}
+
+}  // namespace
 
 terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> App::parse_stored(
     const std::string& text, SceneSource source) {
@@ -125,33 +162,20 @@ terrain::Result<LoadedVersion, Response> App::resolve(const Request& request,
     return problem(request, http::status::bad_request, "Bad scene id",
                    "scene ids are 1 to 64 characters of a-z, 0-9, '-' and '_'", "/id");
   }
-  // The ref in one spelling ("id@7" for "id@07"), so that re-spellings share one entry of the
-  // bounded memo below instead of evicting the others.
-  const bool pinned = at != std::string::npos;
-  std::string key = id;
-  std::optional<std::int64_t> number;
-  if (pinned) {
-    const std::string token = ref.substr(at + 1);
-    if (token.starts_with("sha256:") && token.size() == 71 &&
-        token.find_first_not_of("0123456789abcdef", 7) == std::string::npos) {
-      key = id + "@" + token;
-    } else if (auto n = parse_integer<std::int64_t>(token); n && *n >= 1) {
-      number = *n;
-      key = id + "@" + std::to_string(*n);
-    } else {
-      return problem(request, http::status::bad_request, "Bad version",
-                     "a version is a number from 1 or a sha256: hash (64 lower-case hex digits)",
-                     "/version");
-    }
+  const std::optional<ParsedRef> parsed = parse_ref(ref);
+  if (!parsed) {
+    return problem(request, http::status::bad_request, "Bad version",
+                   "a version is a number from 1 or a sha256: hash (64 lower-case hex digits)",
+                   "/version");
   }
-  // Pinned refs name immutable versions: once resolved, never asked of the store again. Head
-  // refs are remembered for a second (their responses say max-age=5 anyway) and forgotten at
-  // once when this server writes a new version.
+  const bool pinned = parsed->pinned;
+  const std::string& key = parsed->key;
+  // A head ref is also forgotten at once when this server writes a new version (forget_head).
   const auto now = std::chrono::steady_clock::now();
   {
     std::lock_guard lock(versions_mutex_);
     if (auto it = resolved_.find(key); it != resolved_.end()) {
-      if (pinned || now - it->second.second < std::chrono::seconds(1)) return it->second.first;
+      if (still_fresh(pinned, it->second.second, now)) return it->second.first;
       resolved_.erase(it);
     }
   }
@@ -166,29 +190,23 @@ terrain::Result<LoadedVersion, Response> App::resolve(const Request& request,
   StoreResult<SceneVersion> version = StoreError{};
   if (!pinned) {
     version = store_->head(id);
-  } else if (number) {
-    version = store_->version(id, *number);
+  } else if (parsed->number) {
+    version = store_->version(id, *parsed->number);
   } else {
-    version = store_->version_by_hash(id, ref.substr(at + 1));
+    version = store_->version_by_hash(id, ref.substr(ref.find('@') + 1));
   }
   if (!version) return store_problem(request, version.error());
   return remember(load_version(request, *version));
 }
 
 bool App::is_loaded(const std::string& ref) {
-  const std::size_t at = ref.find('@');
-  std::string key = ref;
-  if (at != std::string::npos) {
-    if (auto n = parse_integer<std::int64_t>(std::string_view(ref).substr(at + 1))) {
-      key = ref.substr(0, at) + "@" + std::to_string(*n);
-    }
-  }
+  const std::optional<ParsedRef> parsed = parse_ref(ref);
+  if (!parsed) return false;  // resolve() answers it, wherever it runs
   std::lock_guard lock(versions_mutex_);
-  const auto it = resolved_.find(key);
+  const auto it = resolved_.find(parsed->key);
   // A head ref remembered more than a second ago may have moved to a version not loaded yet.
   return it != resolved_.end() &&
-         (at != std::string::npos ||
-          std::chrono::steady_clock::now() - it->second.second < std::chrono::seconds(1)) &&
+         still_fresh(parsed->pinned, it->second.second, std::chrono::steady_clock::now()) &&
          loaded_.contains(it->second.first.version.hash);
 }
 

@@ -161,6 +161,16 @@ struct HttpServer::State {
   std::condition_variable_any shutdown_wake;
   bool shutting_down = false;  // guarded by shutdown_mutex
 
+  // Closes the streams of a worker's list that are still open (on the worker's thread).
+  static void close_streams(const std::list<std::weak_ptr<tcp::socket>>& streams) {
+    for (const auto& weak : streams) {
+      if (auto stream = weak.lock()) {
+        boost::system::error_code ignored;
+        stream->close(ignored);
+      }
+    }
+  }
+
   // Runs for the life of run(): once stop() is called, waits out the grace period, then closes
   // every HTTP connection still open (each on its worker's thread).
   void close_after_grace(std::stop_token stop) {
@@ -171,14 +181,7 @@ struct HttpServer::State {
     if (stop.stop_requested()) return;
     log(LogLevel::info, "shutdown grace period over", {{"ms", config.shutdown_timeout_ms}});
     for (auto& worker : workers) {
-      asio::post(worker->io, [w = worker.get()] {
-        for (auto& weak : w->open) {
-          if (auto stream = weak.lock()) {
-            boost::system::error_code ignored;
-            stream->close(ignored);
-          }
-        }
-      });
+      asio::post(worker->io, [w = worker.get()] { close_streams(w->open); });
     }
   }
 
@@ -761,12 +764,7 @@ void HttpServer::stop() {
   for (auto& worker : s->workers) {
     // On the worker's own thread: its idle list and streams are touched there alone.
     asio::post(worker->io, [w = worker.get()] {
-      for (auto& weak : w->idle) {
-        if (auto stream = weak.lock()) {
-          boost::system::error_code ignored;
-          stream->close(ignored);
-        }
-      }
+      State::close_streams(w->idle);
       w->keep_running.reset();  // run() returns once the sessions in flight have finished
     });
   }
