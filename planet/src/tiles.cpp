@@ -225,7 +225,9 @@ Result<terrain::Product> PlanetTiles::make(const TileAddress& address, TileForma
     if (options.metadata && address.z < max_zoom()) {
       extras.metadata =
           terrain::quantized_mesh_metadata_json(
-              everything(address.z + 1, std::min(max_zoom(), address.z + 10), &address))
+              everything(address.z + 1,
+                         std::min(max_zoom(), address.z + terrain::kMetadataAvailabilityLevels),
+                         &address))
               .dump();
     }
   }

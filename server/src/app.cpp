@@ -389,6 +389,7 @@ struct ReplyContext {
   std::string if_none_match;
   std::string cache_control;
   std::optional<terrain::Gray16Encoding> gray16;  ///< X-Gray16-* headers for gray16 PNGs
+  bool negotiated_by_accept = false;              ///< quantized-mesh: Accept chose the extensions
 
   static ReplyContext of(const Request& request, std::string cache_control) {
     ReplyContext c;
@@ -418,9 +419,11 @@ struct ReplyParts {
   std::string_view if_none_match;
   std::string_view cache_control;
   std::optional<terrain::Gray16Encoding> gray16;
+  bool negotiated_by_accept = false;
 
   static ReplyParts of(const ReplyContext& c) {
-    return {c.version, c.keep_alive, c.gzip_ok, c.if_none_match, c.cache_control, c.gray16};
+    return {c.version, c.keep_alive,          c.gzip_ok, c.if_none_match, c.cache_control,
+            c.gray16,  c.negotiated_by_accept};
   }
 };
 
@@ -438,7 +441,9 @@ Response product_response(const ReplyParts& c,
   r.keep_alive(c.keep_alive);
   r.set(http::field::etag, etag);
   r.set(http::field::cache_control, c.cache_control);
-  r.set(http::field::vary, "Accept-Encoding, Origin");
+  // A shared cache must not hand one client's quantized-mesh extensions to another.
+  r.set(http::field::vary,
+        c.negotiated_by_accept ? "Accept, Accept-Encoding, Origin" : "Accept-Encoding, Origin");
   if (c.gray16) {
     r.set("X-Gray16-Offset", std::to_string(c.gray16->offset));
     r.set("X-Gray16-Scale", std::to_string(c.gray16->scale));
@@ -710,6 +715,7 @@ Outcome App::handle(const Request& request) {
     bool ok = true;
     const std::size_t q = raw.find('?');
     const std::string_view path = raw.substr(0, q);
+    target.folder = path.size() > 1 && path.ends_with('/');
     std::size_t start = 1;
     while (start <= path.size()) {
       const std::size_t slash = path.find('/', start);
@@ -875,7 +881,7 @@ Outcome App::route(const Request& request, const Target& target) {
     // The browser client: looked up in the table read at start, never a path on disk.
     std::string path;
     for (const std::string& seg : s) path += "/" + seg;
-    if (path.empty()) path = "/";
+    if (path.empty() || target.folder) path += "/";
     if (const StaticFile* file = client_.find(path)) {
       if (etag_matches(request, file->etag)) {
         Response r = make_response(request, http::status::not_modified, "", file->media_type);
@@ -1329,6 +1335,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   if (query->format == terrain::TileFormat::gray16) {
     reply.gray16 = terrain::gray16_encoding_for(loaded.source->elevation_range);
   }
+  reply.negotiated_by_accept = query->format == terrain::TileFormat::quantized_mesh;
   // A pinned version's URL names the same bytes and headers forever; quantized-mesh also
   // depends on Accept.
   if (pinned && query->format != terrain::TileFormat::quantized_mesh) {
@@ -1993,6 +2000,7 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
   if (query->format == terrain::TileFormat::gray16) {
     reply.gray16 = terrain::gray16_encoding_for(world->elevation_range());
   }
+  reply.negotiated_by_accept = query->format == terrain::TileFormat::quantized_mesh;
   // An id's URL names the same bytes and headers forever (the alias may change at a restart);
   // quantized-mesh also depends on Accept.
   if (ref == id && query->format != terrain::TileFormat::quantized_mesh) {

@@ -19,6 +19,7 @@ namespace server {
 struct App::Target {
   std::vector<std::string> segments;
   std::map<std::string, std::string> query;
+  bool folder = false;  ///< the path ends with '/' (a static folder's index page)
   std::string get(const std::string& key, const std::string& fallback = "") const {
     auto it = query.find(key);
     return it == query.end() ? fallback : it->second;

@@ -54,7 +54,8 @@ StaticFiles StaticFiles::load(const std::string& directory) {
 }
 
 const StaticFile* StaticFiles::find(const std::string& path) const {
-  auto it = files_.find(path == "/" ? "/index.html" : path);
+  // A folder's address names its index page (/ and /examples/).
+  auto it = files_.find(path.ends_with('/') ? path + "index.html" : path);
   return it == files_.end() ? nullptr : &it->second;
 }
 

@@ -536,8 +536,11 @@ nlohmann::json quantized_mesh_layer_json(const LayerJsonOptions& options) {
   if (!options.available.empty()) {
     layer["available"] = quantized_mesh_metadata_json(options.available)["available"];
   }
-  if (options.metadata_availability) {
-    layer["metadataAvailability"] = *options.metadata_availability;
+  // `available` stays complete for clients that read it beside the tiles' metadata; CesiumJS
+  // then takes levels 0 and below from the availability tiles (levels 0, n, 2n, …).
+  if (std::find(options.extensions.begin(), options.extensions.end(), "metadata") !=
+      options.extensions.end()) {
+    layer["metadataAvailability"] = kMetadataAvailabilityLevels;
   }
   return layer;
 }

@@ -225,7 +225,8 @@ Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address
       const int deepest = constants_.max_useful_zoom[static_cast<int>(TileScheme::geographic)];
       extras.metadata =
           quantized_mesh_metadata_json(
-              availability(address.z + 1, std::min(deepest, address.z + 10), &address))
+              availability(address.z + 1,
+                           std::min(deepest, address.z + kMetadataAvailabilityLevels), &address))
               .dump();
     }
   }

@@ -17,12 +17,14 @@ export class Checks {
 }
 
 /// Starts terrain-server on a free port with an empty data directory, serving client_web/.
-/// `writeToken` turns writes (POST, PUT, live edits) on with that bearer token.
-export async function startServer(serverBinary, repoRoot, { writeToken = '' } = {}) {
+/// `writeToken` turns writes (POST, PUT, live edits) on with that bearer token; `corsOrigins`
+/// lets pages of those origins read the API.
+export async function startServer(serverBinary, repoRoot, { writeToken = '', corsOrigins = '' } = {}) {
   const data = mkdtempSync(join(tmpdir(), 'browser-test-'));
-  const token = writeToken ? ['--write-token', writeToken] : [];
+  const flags = writeToken ? ['--write-token', writeToken] : [];
+  if (corsOrigins) flags.push('--cors-origins', corsOrigins);
   const server = spawn(serverBinary, ['--config', '/dev/null', '--port', '0', '--data-dir', data,
-    '--client-dir', join(repoRoot, 'client_web'), '--log-level', 'warn', ...token], { cwd: repoRoot });
+    '--client-dir', join(repoRoot, 'client_web'), '--log-level', 'warn', ...flags], { cwd: repoRoot });
   let errors = '';
   server.stderr.on('data', (d) => { errors += d; });
   const port = await new Promise((resolve, reject) => {

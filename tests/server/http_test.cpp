@@ -319,6 +319,16 @@ TEST_F(HttpApi, QuantizedMeshExtensionsFollowTheAcceptHeader) {
   EXPECT_FALSE(bare->water_mask.has_value());
   EXPECT_FALSE(bare->metadata.has_value());
   EXPECT_NE(header(with, http::field::etag), header(none, http::field::etag));
+  // Negotiated answers say so, or a shared cache would hand one client's extensions to another.
+  for (const Response* r : {&with, &only_normals, &none}) {
+    EXPECT_EQ(header(*r, http::field::vary), "Accept, Accept-Encoding, Origin");
+  }
+  const Response revalidated = get(url, {{"Accept", kQuantizedMeshWithExtensions},
+                                         {"If-None-Match", header(with, http::field::etag)}});
+  EXPECT_EQ(revalidated.result_int(), 304u);
+  EXPECT_EQ(header(revalidated, http::field::vary), "Accept, Accept-Encoding, Origin");
+  const Response png = get("/api/v1/scenes/lake-dunes@1/tiles/0/0/0.png");
+  EXPECT_EQ(header(png, http::field::vary), "Accept-Encoding, Origin");
 }
 
 TEST_F(HttpApi, GlbAndDracoMeshesCarryTheirFormats) {

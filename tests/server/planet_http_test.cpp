@@ -226,6 +226,7 @@ TEST_F(HttpPlanets, QuantizedMeshIsGzippedWithAWaterMaskWhenAsked) {
   EXPECT_EQ(mesh->water_mask->size(), 65536u);  // a quarter of the planet: sea and land
   EXPECT_TRUE(mesh->normals.has_value());
   EXPECT_TRUE(mesh->metadata.has_value());
+  EXPECT_EQ(header(r, http::field::vary), "Accept, Accept-Encoding, Origin");
   // Without Accept-Encoding: the same mesh, inflated, under another strong ETag.
   const Response plain = get(url, {{"Accept", kQuantizedMeshWithExtensions}});
   ASSERT_EQ(plain.result_int(), 200u);
@@ -302,6 +303,7 @@ TEST_F(HttpPlanets, LayerJsonAndTileJsonDescribeTheGeographicTiles) {
   EXPECT_EQ(l["tiles"][0], "/api/v1/planets/" + default_id_ + "/mesh/{z}/{x}/{y}.terrain");
   ASSERT_EQ(l["available"].size(), static_cast<std::size_t>(planet::PlanetTiles::max_zoom() + 1));
   EXPECT_EQ(l["available"][0][0]["endX"], 1);  // two root tiles
+  EXPECT_EQ(l["metadataAvailability"], terrain::kMetadataAvailabilityLevels);
 
   const Response tj = get("/api/v1/planets/" + default_id_ + "/tilejson.json?encoding=terrarium");
   ASSERT_EQ(tj.result_int(), 200u) << tj.body();

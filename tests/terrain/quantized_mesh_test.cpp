@@ -507,10 +507,19 @@ TEST(QuantizedMesh, LayerJsonHasTheFieldsCesiumTerrainProviderReads) {
             nlohmann::json::array({"octvertexnormals", "watermask", "metadata"}));
   EXPECT_EQ(layer["available"][1][0],
             (nlohmann::json{{"startX", 0}, {"startY", 0}, {"endX", 3}, {"endY", 1}}));
-  EXPECT_FALSE(layer.contains("metadataAvailability"));
   EXPECT_FALSE(quantized_mesh_layer_json(LayerJsonOptions{}).contains("available"));
-  options.metadata_availability = 10;
-  EXPECT_EQ(quantized_mesh_layer_json(options)["metadataAvailability"], 10);
+}
+
+// CesiumJS creates the bookkeeping for tile metadata only when layer.json has
+// metadataAvailability, yet parses the metadata extension whenever it is listed: without the
+// field every tile failed (TypeError in CesiumTerrainProvider) and nothing was drawn.
+TEST(QuantizedMesh, LayerJsonListingMetadataSaysWhichLevelsCarryAvailability) {
+  LayerJsonOptions options;
+  options.available = {{{0, 0, 1, 0}}};
+  EXPECT_EQ(quantized_mesh_layer_json(options)["metadataAvailability"],
+            kMetadataAvailabilityLevels);
+  options.extensions = {"octvertexnormals", "watermask"};
+  EXPECT_FALSE(quantized_mesh_layer_json(options).contains("metadataAvailability"));
 }
 
 TEST(QuantizedMesh, EncoderRefusesMalformedInput) {

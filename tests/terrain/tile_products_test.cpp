@@ -266,5 +266,42 @@ TEST(LayerJson, ListsTheRootsAndTheScenesTiles) {
   EXPECT_GE(r["endY"].get<std::int64_t>(), a.y);
 }
 
+// The quantized-mesh/layer.json contract with metadataAvailability n: a tile at level k·n lists,
+// in its metadata, the available tiles of its own subtree for the next n levels; those lists
+// agree with layer.json's `available` cut to the tile.
+TEST(LayerJson, AvailabilityTilesAgreeWithLayerJson) {
+  ProductMaker& m = maker("hills-river");
+  const nlohmann::json layer = m.layer_json({});
+  ASSERT_EQ(layer["metadataAvailability"], kMetadataAvailabilityLevels);
+  const auto& available = layer["available"];
+  for (const TileAddress a : {TileAddress{0, 0, 0}, TileAddress{0, 1, 0},
+                              geographic_origin_tile(m.source(), kMetadataAvailabilityLevels)}) {
+    const QuantizedMesh qm =
+        decode_qm(make_or_die(m, TileScheme::geographic, a, TileFormat::quantized_mesh));
+    ASSERT_TRUE(qm.metadata.has_value());
+    const nlohmann::json listed = nlohmann::json::parse(*qm.metadata)["available"];
+    // The next n levels, or as many as there are below the tile.
+    const int below = std::min(kMetadataAvailabilityLevels, layer["maxzoom"].get<int>() - a.z);
+    ASSERT_EQ(listed.size(), static_cast<std::size_t>(below));
+    for (int k = 1; k <= below; ++k) {
+      // The layer's rectangle at level z + k, cut to the tile's descendants.
+      const auto& whole = available[static_cast<std::size_t>(a.z + k)][0];
+      const std::int64_t x0 = std::max<std::int64_t>(whole["startX"].get<std::int64_t>(), a.x << k);
+      const std::int64_t y0 = std::max<std::int64_t>(whole["startY"].get<std::int64_t>(), a.y << k);
+      const std::int64_t x1 = std::min<std::int64_t>(whole["endX"].get<std::int64_t>(), ((a.x + 1) << k) - 1);
+      const std::int64_t y1 = std::min<std::int64_t>(whole["endY"].get<std::int64_t>(), ((a.y + 1) << k) - 1);
+      const auto& level = listed[static_cast<std::size_t>(k - 1)];
+      if (x0 > x1 || y0 > y1) {
+        EXPECT_TRUE(level.empty()) << a.z << "/" << a.x << "/" << a.y << " level +" << k;
+        continue;
+      }
+      ASSERT_EQ(level.size(), 1u);
+      EXPECT_EQ(level[0],
+                (nlohmann::json{{"startX", x0}, {"startY", y0}, {"endX", x1}, {"endY", y1}}))
+          << a.z << "/" << a.x << "/" << a.y << " level +" << k;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace terrain

@@ -111,6 +111,11 @@ struct AvailabilityRectangle {
   std::int64_t end_y = 0;
 };
 
+/// How many levels below itself a tile's metadata extension lists availability for, and so
+/// layer.json's `metadataAvailability`: tiles at levels 0, n, 2n, … are the ones CesiumJS
+/// reads availability from.
+inline constexpr int kMetadataAvailabilityLevels = 10;
+
 /// The fields of layer.json we let the caller choose.
 struct LayerJsonOptions {
   std::string name = "Terrain";
@@ -126,13 +131,13 @@ struct LayerJsonOptions {
   /// available[z]: the rectangles of tiles that exist at zoom z. Left out of the document when
   /// empty (Cesium would read an empty list as "no tile exists").
   std::vector<std::vector<AvailabilityRectangle>> available;
-  /// When set, Cesium reads availability from the tiles' metadata every n levels and ignores
-  /// `available`.
-  std::optional<int> metadata_availability;
 };
 
 /// The layer.json document CesiumTerrainProvider reads: tilejson "2.1.0", format
-/// "quantized-mesh-1.0", scheme "tms", projection "EPSG:4326" and the options' fields.
+/// "quantized-mesh-1.0", scheme "tms", projection "EPSG:4326" and the options' fields. When the
+/// extensions list `metadata`, it also carries `metadataAvailability`
+/// (kMetadataAvailabilityLevels): CesiumJS keeps the bookkeeping for tile metadata only then,
+/// and fails on every tile's metadata without it.
 nlohmann::json quantized_mesh_layer_json(const LayerJsonOptions& options);
 
 /// {"available": [[rectangles of level z+1], [level z+2], ...]}: the metadata extension's
