@@ -19,13 +19,12 @@ using terrain::TileScheme;
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
-TileRequest request_for(const TileAddress& address, TileFormat format,
+TileRequest request_for(TileScheme scheme, const TileAddress& address, TileFormat format,
                         const terrain::ProductOptions& options) {
   if (terrain::format_info(format).mesh) {
-    return {TileScheme::geographic, address, SampleLayout::cell_corners, options.grid - 1, 0};
+    return {scheme, address, SampleLayout::cell_corners, options.grid - 1, 0};
   }
-  return {TileScheme::geographic, address, SampleLayout::cell_centres, options.size,
-          options.border ? 1 : 0};
+  return {scheme, address, SampleLayout::cell_centres, options.size, options.border ? 1 : 0};
 }
 
 // Rectangles of every tile at levels from_z … to_z, or of the descendants of one tile.
@@ -60,12 +59,21 @@ terrain::ProductConstants PlanetTiles::constants_at(int z) const {
   c.position_quantum = terrain::position_quantum_for(
       std::numbers::pi * planet().definition().radius / std::ldexp(1.0, z), span);
   c.max_useful_zoom[static_cast<int>(TileScheme::geographic)] = max_zoom();
+  c.max_useful_zoom[static_cast<int>(TileScheme::webmercator)] =
+      terrain::max_zoom(TileScheme::webmercator);
   return c;
 }
 
-terrain::Status PlanetTiles::validate(const TileAddress& address, TileFormat format,
-                                      const terrain::ProductOptions& options) {
-  if (terrain::Status s = terrain::validate_request(request_for(address, format, options)); !s) {
+terrain::Status PlanetTiles::validate(TileScheme scheme, const TileAddress& address,
+                                      TileFormat format, const terrain::ProductOptions& options) {
+  if (scheme == TileScheme::local) {
+    return Error{"planets are tiled in the geographic and webmercator schemes", "/scheme"};
+  }
+  if (terrain::format_info(format).mesh && scheme != TileScheme::geographic) {
+    return Error{"planet meshes are on the geographic scheme (Cesium's) only", "/scheme"};
+  }
+  if (terrain::Status s = terrain::validate_request(request_for(scheme, address, format, options));
+      !s) {
     return s;
   }
   if (terrain::format_info(format).mesh && options.max_error &&
@@ -77,19 +85,37 @@ terrain::Status PlanetTiles::validate(const TileAddress& address, TileFormat for
 
 Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
                                          std::vector<std::uint8_t>* submerged) {
-  if (request.scheme != TileScheme::geographic) {
-    return Error{"planets are tiled in the geographic scheme only", "/scheme"};
+  if (request.scheme == TileScheme::local) {
+    return Error{"planets are tiled in the geographic and webmercator schemes", "/scheme"};
   }
   if (terrain::Status valid = terrain::validate_request(request); !valid) return valid.error();
   const Planet& world = planet();
   HeightTile tile = terrain::tile_layout_for(request);
-  tile.world = {-180.0, -90.0, 180.0, 90.0};
   const TileAddress& a = request.address;
-  const double size = 180.0 / std::ldexp(1.0, a.z);  // degrees per tile, both ways
-  tile.bounds = {-180.0 + static_cast<double>(a.x) * size, -90.0 + static_cast<double>(a.y) * size,
-                 -180.0 + static_cast<double>(a.x + 1) * size,
-                 -90.0 + static_cast<double>(a.y + 1) * size};
-  tile.ground_spacing = world.ground_spacing(a.z, request.cells);
+  // Web Mercator (for MapLibre): the same planet seen through EPSG:3857's longitude and
+  // latitude. Its tiles span twice the longitude of a geographic tile of the same zoom, so the
+  // level of detail is that of the geographic zoom above; one spacing for the whole zoom keeps
+  // shared edges seamless (finer than needed towards the poles).
+  const bool mercator = request.scheme == TileScheme::webmercator;
+  if (mercator) {
+    const double half = std::numbers::pi * terrain::kWebMercatorRadius;
+    tile.world = {-half, -half, half, half};
+    tile.bounds = terrain::tile_footprint(request.scheme, tile.world, a);
+    tile.ground_spacing = 2.0 * world.ground_spacing(a.z, request.cells);
+  } else {
+    tile.world = {-180.0, -90.0, 180.0, 90.0};
+    const double size = 180.0 / std::ldexp(1.0, a.z);  // degrees per tile, both ways
+    tile.bounds = {
+        -180.0 + static_cast<double>(a.x) * size, -90.0 + static_cast<double>(a.y) * size,
+        -180.0 + static_cast<double>(a.x + 1) * size, -90.0 + static_cast<double>(a.y + 1) * size};
+    tile.ground_spacing = world.ground_spacing(a.z, request.cells);
+  }
+  const auto longitude_of = [&](double crs_x) {
+    return mercator ? terrain::web_mercator_longitude(crs_x) : crs_x;
+  };
+  const auto latitude_of = [&](double crs_y) {
+    return mercator ? terrain::web_mercator_latitude(crs_y) : crs_y;
+  };
   const int level = world.level_for_spacing(tile.ground_spacing);
   const double octaves = world.octaves_for_spacing(tile.ground_spacing);
 
@@ -99,7 +125,7 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
   std::vector<double> sin_lon(static_cast<std::size_t>(ext)), cos_lon(sin_lon.size());
   std::vector<double> lon_deg(sin_lon.size());
   for (int c = 0; c < ext; ++c) {
-    double lon = tile.sample_crs_x(c - 1);
+    double lon = longitude_of(tile.sample_crs_x(c - 1));
     lon_deg[static_cast<std::size_t>(c)] = lon;
     if (lon >= 180.0) lon -= 360.0;  // the antimeridian is one direction, seen from either side
     if (lon < -180.0) lon += 360.0;
@@ -112,7 +138,7 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
   std::vector<double> lat_deg(static_cast<std::size_t>(ext));
   std::vector<double> sin_lat(lat_deg.size()), cos_lat(lat_deg.size());
   for (int r = 0; r < ext; ++r) {
-    const double lat = std::clamp(tile.sample_crs_y(r - 1), -90.0, 90.0);
+    const double lat = std::clamp(latitude_of(tile.sample_crs_y(r - 1)), -90.0, 90.0);
     lat_deg[static_cast<std::size_t>(r)] = lat;
     sin_lat[static_cast<std::size_t>(r)] = std::sin(lat * kDegree);
     cos_lat[static_cast<std::size_t>(r)] = std::cos(lat * kDegree);
@@ -162,8 +188,16 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
   tile.scene_y.resize(count);
   if (submerged != nullptr) submerged->resize(count);
   const double radius = world.definition().radius;
-  const double step_x = (tile.sample_crs_x(1) - tile.sample_crs_x(0)) * kDegree;
+  const double step_x =
+      (longitude_of(tile.sample_crs_x(1)) - longitude_of(tile.sample_crs_x(0))) * kDegree;
   const double step_y = (tile.sample_crs_y(0) - tile.sample_crs_y(1)) * kDegree;
+  // Metres from a row's northern neighbour to its southern one: uniform on the geographic
+  // grid, shrinking towards the equator on Web Mercator's.
+  const auto north_span = [&](int r) {
+    if (!mercator) return 2.0 * step_y * radius;
+    return (lat_deg[static_cast<std::size_t>(r)] - lat_deg[static_cast<std::size_t>(r + 2)]) *
+           kDegree * radius;
+  };
   for (int r = 0; r < n; ++r) {
     const double lat = lat_deg[static_cast<std::size_t>(r + 1)];
     const double east_metres = 2.0 * step_x * radius * std::cos(lat * kDegree);
@@ -177,7 +211,7 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
                                 : 0.0f;
       tile.slope_north[at] = static_cast<float>(
           (ground[e - static_cast<std::size_t>(ext)] - ground[e + static_cast<std::size_t>(ext)]) /
-          (2.0 * step_y * radius));
+          north_span(r));
       tile.scene_x[at] = radius * lon_deg[static_cast<std::size_t>(c + 1)] * kDegree;
       tile.scene_y[at] = radius * lat * kDegree;
       if (submerged != nullptr) (*submerged)[at] = wet[e];
@@ -190,10 +224,11 @@ Result<HeightTile> PlanetTiles::height_tile(const TileRequest& request) {
   return evaluate(request, nullptr);
 }
 
-Result<HeightTile> PlanetTiles::height_tile(const TileAddress& address, TileFormat format,
+Result<HeightTile> PlanetTiles::height_tile(TileScheme scheme, const TileAddress& address,
+                                            TileFormat format,
                                             const terrain::ProductOptions& options) {
-  if (terrain::Status s = validate(address, format, options); !s) return s.error();
-  return evaluate(request_for(address, format, options), nullptr);
+  if (terrain::Status s = validate(scheme, address, format, options); !s) return s.error();
+  return evaluate(request_for(scheme, address, format, options), nullptr);
 }
 
 Result<std::vector<std::uint8_t>> PlanetTiles::water_mask(const TileAddress& address) {
@@ -211,9 +246,10 @@ Result<std::vector<std::uint8_t>> PlanetTiles::water_mask(const TileAddress& add
   return wet;
 }
 
-Result<terrain::Product> PlanetTiles::make(const TileAddress& address, TileFormat format,
+Result<terrain::Product> PlanetTiles::make(TileScheme scheme, const TileAddress& address,
+                                           TileFormat format,
                                            const terrain::ProductOptions& options) {
-  Result<HeightTile> tile = height_tile(address, format, options);
+  Result<HeightTile> tile = height_tile(scheme, address, format, options);
   if (!tile) return tile.error();
   terrain::MeshExtras extras;
   if (format == TileFormat::quantized_mesh) {

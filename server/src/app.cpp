@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <sstream>
 
@@ -274,11 +275,11 @@ struct TileQuery {
 };
 
 // Parses /tiles/{z}/{x}/{y}.{ext} or /mesh/{z}/{x}/{y}.{ext} (rest = those four segments) with
-// the query's scheme, encoding, size, border, grid and max_error. `geographic_only`: planets,
-// whose only tiling is the geographic one (the default there, and any other scheme refused).
+// the query's scheme, encoding, size, border, grid and max_error. `planet`: geographic is the
+// default scheme and local is refused (PlanetTiles::validate checks the rest).
 terrain::Result<TileQuery, Response> parse_tile_query(
     const Request& request, const std::vector<std::string>& rest,
-    const std::map<std::string, std::string>& query, bool geographic_only) {
+    const std::map<std::string, std::string>& query, bool planet) {
   auto get = [&](const char* key, const char* fallback = "") {
     return query_value(query, key, fallback);
   };
@@ -320,7 +321,7 @@ terrain::Result<TileQuery, Response> parse_tile_query(
             (q.mesh ? " is not a mesh format (use /tiles/)" : " is a mesh format (use /mesh/)"),
         "/format");
   }
-  const char* default_scheme = geographic_only || q.format == terrain::TileFormat::quantized_mesh
+  const char* default_scheme = planet || q.format == terrain::TileFormat::quantized_mesh
                                    ? "geographic"
                                : q.mesh ? "local"
                                         : "webmercator";
@@ -329,9 +330,11 @@ terrain::Result<TileQuery, Response> parse_tile_query(
     return problem(request, http::status::bad_request, "Bad scheme", scheme.error().message,
                    "/scheme");
   }
-  if (geographic_only && *scheme != terrain::TileScheme::geographic) {
+  if (planet && *scheme == terrain::TileScheme::local) {
     return problem(request, http::status::bad_request, "Bad scheme",
-                   "planets are tiled in the geographic scheme (EPSG:4326, TMS) only", "/scheme");
+                   "planets are tiled in the geographic (EPSG:4326 TMS, default) and webmercator "
+                   "(EPSG:3857 XYZ, height images) schemes",
+                   "/scheme");
   }
   q.scheme = *scheme;
   auto integer_option = [&](const char* key, int& out, int fallback) -> bool {
@@ -1889,7 +1892,13 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
     return finish_json(planet::PlanetTiles::layer_json(options));
   }
   if (rest.size() == 1 && rest[0] == "tilejson.json") {
-    if (auto bad = geographic_only()) return *bad;
+    const std::string scheme = target.get("scheme", "geographic");
+    if (scheme != "geographic" && scheme != "webmercator") {
+      return problem(request, http::status::bad_request, "Bad scheme",
+                     "planet TileJSON: scheme geographic (EPSG:4326 TMS, default) or webmercator "
+                     "(EPSG:3857 XYZ, for MapLibre)",
+                     "/scheme");
+    }
     const std::string encoding = target.get("encoding", "terrain-rgb");
     if (encoding != "terrain-rgb" && encoding != "terrarium") {
       return problem(request, http::status::bad_request, "Bad encoding",
@@ -1898,13 +1907,31 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
     auto origin_or = public_origin(request);
     if (!origin_or) return origin_or.error();
     const std::string origin = std::move(origin_or).value();
+    if (scheme == "webmercator") {  // MapLibre's raster-dem sources are EPSG:3857 only
+      const double limit =
+          terrain::web_mercator_latitude(std::numbers::pi * terrain::kWebMercatorRadius);
+      return finish_json(
+          {{"tilejson", "3.0.0"},
+           {"name", "planet " + id.substr(0, 12)},
+           {"description", "Web Mercator (EPSG:3857) XYZ height tiles of seeded planet " + id},
+           {"version", "1.0.0"},
+           {"scheme", "xyz"},
+           {"tiles",
+            {origin + base + "/tiles/{z}/{x}/{y}.png?scheme=webmercator&encoding=" + encoding}},
+           {"minzoom", 0},
+           {"maxzoom", terrain::max_zoom(terrain::TileScheme::webmercator)},
+           {"tileSize", 256},
+           {"bounds", {-180.0, -limit, 180.0, limit}},
+           {"center", {20.0, 15.0, 2}},
+           {"encoding", encoding == "terrain-rgb" ? "mapbox" : "terrarium"}});
+    }
     // Geographic TMS tiles (EPSG:4326, two tiles at zoom 0, rows counted from the south): for
-    // Cesium and GIS clients. MapLibre's raster-dem sources are EPSG:3857 only.
+    // Cesium and GIS clients.
     return finish_json({{"tilejson", "3.0.0"},
                         {"name", "planet " + id.substr(0, 12)},
                         {"description",
-                         "geographic (EPSG:4326) TMS height tiles, two at zoom 0; not for "
-                         "MapLibre, whose raster-dem sources are EPSG:3857"},
+                         "geographic (EPSG:4326) TMS height tiles, two at zoom 0; for MapLibre "
+                         "ask for scheme=webmercator"},
                         {"version", "1.0.0"},
                         {"scheme", "tms"},
                         {"crs", "EPSG:4326"},
@@ -1963,22 +1990,22 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
   }
 
   // Tiles and meshes on the geographic tiling: /tiles/{z}/{x}/{y}.{png,tif},
-  // /mesh/{z}/{x}/{y}.{terrain,glb,drc}
+  // /mesh/{z}/{x}/{y}.{terrain,glb,drc}; height images also on Web Mercator (?scheme=).
   if (rest.size() != 4 || (rest[0] != "tiles" && rest[0] != "mesh")) {
     return problem(request, http::status::not_found, "Not found",
                    "no product '" + (rest.empty() ? std::string() : rest[0]) + "' of a planet");
   }
   auto query = parse_tile_query(request, rest, target.query, true);
   if (!query) return query.error();
-  if (terrain::Status valid =
-          planet::PlanetTiles::validate(query->address, query->format, query->options);
+  if (terrain::Status valid = planet::PlanetTiles::validate(query->scheme, query->address,
+                                                            query->format, query->options);
       !valid) {
     return problem(request, http::status::bad_request, "Bad tile request", valid.error().message,
                    valid.error().pointer);
   }
   // Cost: every sample (with the ring of neighbours the slopes use, and quantized-mesh's
   // 256² water mask) descends the mesh hierarchy to the tile's level and sums the visible
-  // detail octaves.
+  // detail octaves (a Web Mercator tile's level is one coarser: the geographic one bounds it).
   const terrain::ProductOptions options = query->options;
   const int cells = query->mesh ? options.grid - 1 : options.size;
   const double spacing = world->ground_spacing(query->address.z, cells);
@@ -2011,6 +2038,7 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
     cache_.insert(cache_key, hit);
     return product_response(reply, hit);
   }
+  const terrain::TileScheme scheme = query->scheme;
   const terrain::TileAddress address = query->address;
   const terrain::TileFormat format = query->format;
   Deferred deferred;
@@ -2023,7 +2051,7 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
     std::unique_ptr<planet::PlanetTiles>& tiles = tilers[id];
     if (!tiles) tiles = std::make_unique<planet::PlanetTiles>(world);
     const auto start = std::chrono::steady_clock::now();
-    Result<terrain::Product> product = tiles->make(address, format, options);
+    Result<terrain::Product> product = tiles->make(scheme, address, format, options);
     const terrain::TileFormatInfo& info = terrain::format_info(format);
     metrics_.generation(
         "planet_" + std::string(info.encoding.empty() ? info.extension : info.encoding),

@@ -18,7 +18,7 @@ namespace terrain {
 namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
-constexpr double kMercatorRadius = 6378137.0;  // EPSG:3857's sphere
+constexpr double kMercatorRadius = kWebMercatorRadius;
 
 bool finite(const Box2& b) {
   return std::isfinite(b.lo.x) && std::isfinite(b.lo.y) && std::isfinite(b.hi.x) &&

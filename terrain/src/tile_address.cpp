@@ -1,5 +1,7 @@
 // Tile addresses and sample positions of the three schemes (no scene involved).
 #include <cassert>
+#include <cmath>
+#include <numbers>
 #include <string>
 
 #include "terrain/tile.hpp"
@@ -61,6 +63,24 @@ Status validate_address(TileScheme scheme, const TileAddress& a) {
                  "/y"};
   }
   return Ok{};
+}
+
+TileBounds tile_footprint(TileScheme scheme, const TileBounds& world, const TileAddress& a) {
+  const double w = (world.east - world.west) / static_cast<double>(columns_at(scheme, a.z));
+  const double h = (world.north - world.south) / static_cast<double>(rows_at(scheme, a.z));
+  const auto x = static_cast<double>(a.x);
+  const auto from_north =
+      static_cast<double>(scheme == TileScheme::geographic ? rows_at(scheme, a.z) - 1 - a.y : a.y);
+  return {world.west + x * w, world.north - (from_north + 1) * h, world.west + (x + 1) * w,
+          world.north - from_north * h};
+}
+
+double web_mercator_longitude(double x) {
+  return x / kWebMercatorRadius * (180.0 / std::numbers::pi);
+}
+
+double web_mercator_latitude(double y) {
+  return std::atan(std::sinh(y / kWebMercatorRadius)) * (180.0 / std::numbers::pi);
 }
 
 namespace {

@@ -13,7 +13,7 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 // EPSG:3857 uses a sphere of the WGS84 equatorial radius.
-constexpr double kMercatorRadius = 6378137.0;
+constexpr double kMercatorRadius = kWebMercatorRadius;
 constexpr double kMercatorHalfWorld = std::numbers::pi * kMercatorRadius;
 
 double mercator_latitude(double y_metres) {
@@ -382,19 +382,7 @@ Result<HeightTile> TileGenerator::height_tile(const TileRequest& request,
   if (Status valid = validate_request(request); !valid) return valid.error();
   HeightTile tile = tile_layout_for(request);
   tile.world = world_bounds(source_, request.scheme);
-  {
-    const double cols = static_cast<double>(columns_at(tile.scheme, tile.address.z));
-    const double rows = static_cast<double>(rows_at(tile.scheme, tile.address.z));
-    const double w = (tile.world.east - tile.world.west) / cols;
-    const double h = (tile.world.north - tile.world.south) / rows;
-    const auto x = static_cast<double>(tile.address.x);
-    const auto from_north =
-        static_cast<double>(tile.scheme == TileScheme::geographic
-                                ? rows_at(tile.scheme, tile.address.z) - 1 - tile.address.y
-                                : tile.address.y);
-    tile.bounds = {tile.world.west + x * w, tile.world.north - (from_north + 1) * h,
-                   tile.world.west + (x + 1) * w, tile.world.north - from_north * h};
-  }
+  tile.bounds = tile_footprint(tile.scheme, tile.world, tile.address);
   tile.ground_spacing = ground_spacing(source_, request.scheme, request.address.z, request.cells);
 
   place_samples(tile, mapped);

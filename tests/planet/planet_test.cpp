@@ -494,10 +494,48 @@ TEST(PlanetTiles, BadRequestsAreRefusedNamingTheField) {
     ASSERT_FALSE(p.ok());
     EXPECT_EQ(p.error().pointer, c.pointer);
   }
-  Result<terrain::HeightTile> mercator = tiles.height_tile(terrain::TileRequest{
-      terrain::TileScheme::webmercator, {0, 0, 0}, terrain::SampleLayout::cell_centres, 256, 0});
-  ASSERT_FALSE(mercator.ok());
-  EXPECT_EQ(mercator.error().pointer, "/scheme");
+  Result<terrain::HeightTile> local = tiles.height_tile(terrain::TileRequest{
+      terrain::TileScheme::local, {0, 0, 0}, terrain::SampleLayout::cell_centres, 256, 0});
+  ASSERT_FALSE(local.ok());
+  EXPECT_EQ(local.error().pointer, "/scheme");
+  // Meshes are Cesium's: geographic only.
+  Result<terrain::Product> mesh =
+      tiles.make(terrain::TileScheme::webmercator, {1, 0, 0}, TileFormat::quantized_mesh);
+  ASSERT_FALSE(mesh.ok());
+  EXPECT_EQ(mesh.error().pointer, "/scheme");
+}
+
+// MapLibre reads EPSG:3857 only: a Web Mercator tile's samples are the planet at their own
+// longitude and latitude, at the level of detail of the tile's spacing, and neighbours agree on
+// the ring of samples they share.
+TEST(PlanetTiles, WebMercatorTilesSampleThePlanetWhereEPSG3857PutsThem) {
+  PlanetTiles tiles(shared_planet());
+  const terrain::TileAddress a{4, 9, 7};
+  Result<terrain::HeightTile> t =
+      tiles.height_tile(terrain::TileScheme::webmercator, a, TileFormat::terrain_rgb);
+  ASSERT_TRUE(t.ok()) << t.error().message;
+  EXPECT_DOUBLE_EQ(t->ground_spacing, 2.0 * shared_planet()->ground_spacing(a.z, 256));
+  Sampler sampler(shared_planet());
+  for (const auto& [col, row] : {std::pair{0, 0}, {17, 200}, {128, 128}, {255, 3}}) {
+    const double lon = terrain::web_mercator_longitude(t->sample_crs_x(col));
+    const double lat = terrain::web_mercator_latitude(t->sample_crs_y(row));
+    const PointSample p = sampler.sample(lat, lon, t->ground_spacing);
+    EXPECT_NEAR(t->elevation[t->index(col, row)], p.ground, 1e-3) << col << "," << row;
+  }
+  EXPECT_NE(t->slope_north[t->index(128, 128)], 0.0f);
+  // The tile east of it, with a border, holds this tile's eastern column as its border.
+  terrain::ProductOptions bordered;
+  bordered.border = true;
+  Result<terrain::HeightTile> east = tiles.height_tile(
+      terrain::TileScheme::webmercator, {a.z, a.x + 1, a.y}, TileFormat::terrain_rgb, bordered);
+  ASSERT_TRUE(east.ok()) << east.error().message;
+  for (int row = 0; row < 256; row += 15) {
+    EXPECT_EQ(east->elevation[east->index(0, row + 1)], t->elevation[t->index(255, row)]) << row;
+  }
+  const Result<terrain::Product> png =
+      tiles.make(terrain::TileScheme::webmercator, a, TileFormat::terrain_rgb);
+  ASSERT_TRUE(png.ok()) << png.error().message;
+  EXPECT_EQ(png->media_type, "image/png");
 }
 
 TEST(PlanetPicture, ShowsLandSeaAndRiversAndIsThreadIndependent) {

@@ -156,7 +156,9 @@ TEST_F(HttpPlanets, BadInputIsAProblemNamingTheFieldAndStoresNothing) {
   expect_problem(get(p + "/sample?lat=north&lon=0"), 400, "/lat");
   expect_problem(get(p + "/sample?lon=0"), 400, "/lat");
   expect_problem(get(p + "/sample?lat=0&lon=-180.5"), 400, "/lon");
-  expect_problem(get(p + "/tiles/1/0/0.png?scheme=webmercator"), 400, "/scheme");
+  expect_problem(get(p + "/tiles/1/0/0.png?scheme=local"), 400, "/scheme");
+  expect_problem(get(p + "/mesh/1/0/0.terrain?scheme=webmercator"), 400, "/scheme");
+  expect_problem(get(p + "/tilejson.json?scheme=local"), 400, "/scheme");
   expect_problem(get(p + "/mesh/1/0/0.glb?scheme=local"), 400, "/scheme");
   expect_problem(get(p + "/tiles/1/0/0.png?scheme=nowhere"), 400, "/scheme");
   expect_problem(get(p + "/layer.json?scheme=webmercator"), 400, "/scheme");
@@ -317,6 +319,25 @@ TEST_F(HttpPlanets, LayerJsonAndTileJsonDescribeTheGeographicTiles) {
       tiles.find("/api/v1/planets/" + default_id_ + "/tiles/{z}/{x}/{y}.png?encoding=terrarium"),
       std::string::npos)
       << tiles;
+
+  // For MapLibre: Web Mercator XYZ, whose tiles are the planet library's.
+  const Response wm = get("/api/v1/planets/default/tilejson.json?scheme=webmercator");
+  ASSERT_EQ(wm.result_int(), 200u) << wm.body();
+  const json w = body_json(wm);
+  EXPECT_EQ(w["scheme"], "xyz");
+  EXPECT_NEAR(w["bounds"][3].get<double>(), 85.0511, 1e-4);
+  const std::string wm_tiles = w["tiles"][0];
+  const std::string prefix = "/api/v1/planets/" + default_id_ + "/tiles/";
+  ASSERT_NE(wm_tiles.find(prefix + "{z}/{x}/{y}.png?scheme=webmercator&encoding=terrain-rgb"),
+            std::string::npos)
+      << wm_tiles;
+  const Response tile = get(prefix + "3/4/3.png?scheme=webmercator");
+  ASSERT_EQ(tile.result_int(), 200u) << tile.body();
+  planet::PlanetTiles library(planet::Planet::create(default_definition()));
+  const auto expected =
+      library.make(terrain::TileScheme::webmercator, {3, 4, 3}, terrain::TileFormat::terrain_rgb);
+  ASSERT_TRUE(expected.ok()) << expected.error().message;
+  EXPECT_EQ(bytes_of(tile.body()), expected->bytes);
 }
 
 TEST_F(HttpPlanets, SampleGivesGroundWaterAndTypeAsThePlanetLibraryDoes) {

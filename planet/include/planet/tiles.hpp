@@ -1,7 +1,8 @@
 // A planet's tile products on the geographic scheme (EPSG:4326 TMS, two root tiles, as Cesium
-// reads it): height tiles that plug into terrain's encoders (every format of docs/tiles.md),
-// quantized-mesh with a water mask from the sea and the rivers, and layer.json. What the
-// server's /api/v1/planets/{id}/… routes call.
+// reads it), and its height images on Web Mercator (EPSG:3857 XYZ, for MapLibre): height tiles that
+// plug into terrain's encoders (every format of docs/tiles.md), quantized-mesh with a water mask
+// from the sea and the rivers, and layer.json. What the server's /api/v1/planets/{id}/… routes
+// call.
 #pragma once
 
 #include <cstdint>
@@ -30,27 +31,44 @@ class PlanetTiles {
   /// whose span shrinks with the zoom, so each zoom's lattice is as fine as a tile allows).
   terrain::ProductConstants constants_at(int z) const;
 
-  /// Checks the address (geographic scheme), format and options; the error names the field
-  /// ("/z", "/x", "/size", "/grid", "/max_error").
-  /// Static: it depends on no planet, so servers check a request before any work.
-  static terrain::Status validate(const terrain::TileAddress& address, terrain::TileFormat format,
+  /// Checks the scheme (geographic; webmercator for height images, not meshes), address,
+  /// format and options; the error names the field ("/scheme", "/z", "/x", "/size", "/grid",
+  /// "/max_error"). Static: it depends on no planet, so servers check a request before any work.
+  static terrain::Status validate(terrain::TileScheme scheme, const terrain::TileAddress& address,
+                                  terrain::TileFormat format,
                                   const terrain::ProductOptions& options);
+  static terrain::Status validate(const terrain::TileAddress& address, terrain::TileFormat format,
+                                  const terrain::ProductOptions& options) {
+    return validate(terrain::TileScheme::geographic, address, format, options);
+  }
 
-  /// Heights and slopes (east, north) of a geographic tile request. Samples at the same place in
-  /// two tiles of one zoom and size are bit-identical (positions come from global sample
-  /// indices, the height from the position alone). The error's pointer names the field.
+  /// Heights and slopes (east, north) of a geographic or Web Mercator tile request. Samples at the
+  /// same place in two tiles of one zoom and size are bit-identical (positions come from global
+  /// sample indices, the height from the position alone). The error's pointer names the field.
   Result<terrain::HeightTile> height_tile(const terrain::TileRequest& request);
-  /// The height tile behind a product.
-  Result<terrain::HeightTile> height_tile(const terrain::TileAddress& address,
+  /// The height tile behind a product (geographic unless the scheme is named).
+  Result<terrain::HeightTile> height_tile(terrain::TileScheme scheme,
+                                          const terrain::TileAddress& address,
                                           terrain::TileFormat format,
                                           const terrain::ProductOptions& options = {});
+  Result<terrain::HeightTile> height_tile(const terrain::TileAddress& address,
+                                          terrain::TileFormat format,
+                                          const terrain::ProductOptions& options = {}) {
+    return height_tile(terrain::TileScheme::geographic, address, format, options);
+  }
   /// quantized-mesh's water mask: 256×256 bytes, row 0 north, 255 where the sea or a river
   /// covers the ground, else 0; one byte when the whole tile is land (0) or water (255).
   Result<std::vector<std::uint8_t>> water_mask(const terrain::TileAddress& address);
 
-  /// A product: the height tile encoded by terrain::encode_product.
-  Result<terrain::Product> make(const terrain::TileAddress& address, terrain::TileFormat format,
+  /// A product: the height tile encoded by terrain::encode_product (geographic unless the
+  /// scheme is named).
+  Result<terrain::Product> make(terrain::TileScheme scheme, const terrain::TileAddress& address,
+                                terrain::TileFormat format,
                                 const terrain::ProductOptions& options = {});
+  Result<terrain::Product> make(const terrain::TileAddress& address, terrain::TileFormat format,
+                                const terrain::ProductOptions& options = {}) {
+    return make(terrain::TileScheme::geographic, address, format, options);
+  }
 
   /// Cesium's layer.json: every tile exists at every zoom up to max_zoom().
   /// Static: availability is the same for every planet.

@@ -49,6 +49,15 @@ struct TileBounds {
   double north = 0.0;
 };
 
+/// A tile's footprint in its scheme's coordinates, given the footprint of the zoom-0 grid.
+TileBounds tile_footprint(TileScheme scheme, const TileBounds& world, const TileAddress& address);
+
+/// The sphere EPSG:3857 projects (WGS84's semi-major axis), in metres.
+inline constexpr double kWebMercatorRadius = 6378137.0;
+/// EPSG:3857 coordinates (metres) to longitude and latitude in degrees.
+double web_mercator_longitude(double x);
+double web_mercator_latitude(double y);
+
 /// Where a tile's samples sit inside its bounds.
 enum class SampleLayout {
   /// N×N samples at the centres of an N×N division of the tile (pixel-is-area), as height
