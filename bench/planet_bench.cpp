@@ -76,4 +76,24 @@ void BM_PlanetTile(benchmark::State& state) {
 }
 BENCHMARK(BM_PlanetTile)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond);
 
+// One 65² quantized-mesh tile with every extension (heights, water mask, triangulation on the
+// ellipsoid, encoding, gzip), as BM_PlanetTile: coarse zooms are where the curvature of the globe
+// adds vertices, deep ones where it should cost nothing.
+void BM_PlanetQuantizedMesh(benchmark::State& state) {
+  const auto& world = default_planet();
+  const int z = static_cast<int>(state.range(0));
+  const terrain::TileAddress a{z, static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z)),
+                               static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z))};
+  for (auto _ : state) {
+    PlanetTiles tiles(world);
+    Result<terrain::Product> p = tiles.make(a, terrain::TileFormat::quantized_mesh);
+    if (!p) {
+      state.SkipWithError(p.error().message.c_str());
+      return;
+    }
+    benchmark::DoNotOptimize(p->bytes.data());
+  }
+}
+BENCHMARK(BM_PlanetQuantizedMesh)->Arg(1)->Arg(4)->Arg(10)->Unit(benchmark::kMillisecond);
+
 }  // namespace

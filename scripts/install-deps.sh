@@ -12,7 +12,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libdraco-dev libgeographiclib-dev zlib1g-dev libtiff-dev
   libboost1.81-dev libtomlplusplus-dev libsqlite3-dev libpq-dev libhiredis-dev
-  gdal-bin nodejs clang libclang-rt-14-dev
+  gdal-bin jq nodejs clang libclang-rt-14-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
 )
 [ "${1:-}" = "--tests" ] && packages+=(chromium postgresql redis-server nginx-light wrk curl)

@@ -16,6 +16,7 @@
 #include "cli_args.hpp"
 #include "gpu/backend.hpp"
 #include "terrain/evaluate.hpp"
+#include "terrain/geotiff.hpp"
 #include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/program.hpp"
@@ -205,7 +206,20 @@ int cmd_grid(const Args& args) {
     info["elevation_offset"] = z.lo;
     info["elevation_scale"] = scale;
   } else {
-    written = write_float_tiff(out, n, n, north_up.data());
+    // Georeferenced like local tiles: the scene's plane in metres (see geotiff.hpp), row 0 at
+    // the grid's north edge.
+    const double north = grid.origin_y + static_cast<double>(n - 1) * grid.step;
+    Result<std::vector<std::uint8_t>> tiff = encode_scene_plane_geotiff(
+        north_up.data(), n, n, grid.origin_x, north, grid.step, scene.georeference);
+    if (!tiff) {
+      written = tiff.error();
+    } else {
+      std::FILE* file = std::fopen(out.c_str(), "wb");
+      if (file == nullptr || std::fwrite(tiff->data(), 1, tiff->size(), file) != tiff->size() ||
+          std::fclose(file) != 0) {
+        written = Error{"cannot write " + out, ""};
+      }
+    }
   }
   if (!written) {
     std::cerr << "terrain grid: " << written.error().message << "\n";

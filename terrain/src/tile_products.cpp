@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <numbers>
 
 #include "terrain/draco_mesh.hpp"
 #include "terrain/gzip.hpp"
@@ -110,10 +111,11 @@ Result<HeightTile> ProductMaker::height_tile(TileScheme scheme, const TileAddres
   return generator_.height_tile(request_for(scheme, address, format, options));
 }
 
-TileMesh ProductMaker::triangulate(const HeightTile& tile, const ProductOptions& options) const {
+TileMesh ProductMaker::triangulate(const HeightTile& tile, const ProductOptions& options,
+                                   TileFormat format) const {
   // The tile's ground spacing is ground_spacing(source, scheme, z, grid − 1): the same default
   // error allowance as default_max_error.
-  return triangulate_for(tile, options);
+  return triangulate_for(tile, options, format);
 }
 
 std::vector<std::vector<AvailabilityRectangle>> ProductMaker::availability(
@@ -148,8 +150,25 @@ nlohmann::json ProductMaker::layer_json(const LayerJsonOptions& base) const {
   return quantized_mesh_layer_json(options);
 }
 
-TileMesh triangulate_for(const HeightTile& tile, const ProductOptions& options) {
+double cesium_level_geometric_error(int z) {
+  constexpr double kWgs84MaximumRadius = 6378137.0;
+  return kWgs84MaximumRadius * 2.0 * std::numbers::pi * 0.25 / (65.0 * 2.0) / std::ldexp(1.0, z);
+}
+
+TileMesh triangulate_for(const HeightTile& tile, const ProductOptions& options, TileFormat format) {
   if (options.regular) return triangulate_grid(tile.width);
+  if (format == TileFormat::quantized_mesh && tile.scheme == TileScheme::geographic) {
+    // The allowance bounds what the samples see; 10 % of Cesium's error stays for what they
+    // cannot: the sag inside one grid cell (at most 5 % at zoom 0 with 65 samples, halving per
+    // zoom) and the height and position quanta.
+    const double max_error = options.max_error.value_or(
+        std::min(0.25 * tile.ground_spacing, 0.9 * cesium_level_geometric_error(tile.address.z)));
+    const int last = tile.width - 1;
+    const TileBounds degrees{tile.sample_crs_x(0), tile.sample_crs_y(last), tile.sample_crs_x(last),
+                             tile.sample_crs_y(0)};
+    return triangulate_rtin_on_ellipsoid(tile.elevation.data(), tile.width, degrees,
+                                         static_cast<float>(max_error));
+  }
   const double max_error = options.max_error.value_or(0.25 * tile.ground_spacing);
   return triangulate_rtin(tile.elevation.data(), tile.width, static_cast<float>(max_error));
 }
@@ -186,7 +205,7 @@ Result<Product> encode_product(const HeightTile& tile, TileFormat format,
       const double max_error = options.max_error.value_or(0.25 * tile.ground_spacing);
       // Skirts deep enough to hide the largest step between neighbours of adjacent levels.
       draco.skirt_height = std::max(5.0 * max_error, 1.0);
-      const TileMesh mesh = triangulate_for(tile, options);
+      const TileMesh mesh = triangulate_for(tile, options, format);
       bytes = format == TileFormat::glb ? encode_glb(tile, mesh, draco)
                                         : encode_draco(tile, mesh, draco);
       break;
@@ -198,7 +217,7 @@ Result<Product> encode_product(const HeightTile& tile, TileFormat format,
       if (options.watermask) qm.water_mask = std::move(extras.water_mask);
       if (options.metadata) qm.metadata = std::move(extras.metadata);
       Result<std::vector<std::uint8_t>> raw =
-          encode_quantized_mesh(tile, triangulate_for(tile, options), qm);
+          encode_quantized_mesh(tile, triangulate_for(tile, options, format), qm);
       if (!raw) return raw.error();
       bytes = gzip_compress(std::span<const std::uint8_t>(*raw), 6);
       product.content_encoding = "gzip";

@@ -13,6 +13,7 @@
 #include <set>
 #include <thread>
 
+#include "../terrain/quantized_mesh_dip.hpp"
 #include "planet/picture.hpp"
 #include "planet/planet.hpp"
 #include "planet/tiles.hpp"
@@ -402,6 +403,42 @@ TEST(PlanetTiles, NeighboursShareEdgesExactly) {
       EXPECT_EQ(t.elevation[t.index(n - 1, i)], east.elevation[east.index(0, i)]) << a.z;
       EXPECT_EQ(t.slope_east[t.index(n - 1, i)], east.slope_east[east.index(0, i)]) << a.z;
       EXPECT_EQ(t.elevation[t.index(i, 0)], north.elevation[north.index(i, n - 1)]) << a.z;
+    }
+  }
+}
+
+// CesiumJS draws flat triangles between ECEF vertices: over the sea, a large triangle of a coarse
+// tile cuts under the globe and its outline becomes a polygon. The default planet's tiles, adaptive
+// and full grid, must dip under the curved surface by at most the error the tileset declares.
+TEST(PlanetTiles, QuantizedMeshDipsUnderTheCurvedSurfaceByAtMostTheDeclaredError) {
+  PlanetTiles tiles(
+      Planet::create(load_planet_file(TERRAIN_SOURCE_DIR "/config/planets/default.json").value()));
+  for (const bool regular : {false, true}) {
+    terrain::ProductOptions options;
+    options.regular = regular;
+    for (int z = 0; z <= 6; ++z) {
+      double worst = 0.0;
+      std::size_t vertices = 0;
+      // Also a tile over the central continent (about 20° N, 20° E), not only sea and ice.
+      const std::int64_t land_x = static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z));
+      const std::int64_t land_y = static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z));
+      const auto probes = terrain::testing::curvature_probe_tiles(z, {{z, land_x, land_y}});
+      for (const TileAddress& a : probes) {
+        const auto raw = terrain::gzip_decompress(
+            bytes_of(tiles, a, TileFormat::quantized_mesh, options), 1u << 26);
+        ASSERT_TRUE(raw.ok());
+        Result<terrain::QuantizedMesh> qm = terrain::decode_quantized_mesh(*raw);
+        ASSERT_TRUE(qm.ok()) << qm.error().message;
+        const double dip = terrain::testing::max_dip_below_surface(
+            *qm, terrain::testing::geographic_tile_bounds(a), regular ? 4 : 8);
+        EXPECT_LE(dip, terrain::testing::cesium_level_maximum_geometric_error(z))
+            << (regular ? "regular " : "adaptive ") << a.z << "/" << a.x << "/" << a.y;
+        worst = std::max(worst, dip);
+        vertices += qm->u.size();
+      }
+      std::printf("%s zoom %d: %.1f vertices per tile, largest dip %.0f m, declared error %.0f m\n",
+                  regular ? "regular" : "adaptive", z, double(vertices) / double(probes.size()),
+                  worst, terrain::testing::cesium_level_maximum_geometric_error(z));
     }
   }
 }

@@ -11,6 +11,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <map>
 #include <numbers>
 #include <random>
@@ -18,8 +19,11 @@
 #include <string>
 #include <vector>
 
+#include "example_tile_sources.hpp"
+#include "quantized_mesh_dip.hpp"
 #include "terrain/gzip.hpp"
 #include "terrain/mesh.hpp"
+#include "terrain/tile_products.hpp"
 
 namespace terrain {
 namespace {
@@ -472,6 +476,38 @@ TEST(QuantizedMesh, NorthSouthNeighboursDecodeIdenticalSharedEdges) {
   expect_identical_shared_edge(make_tile(7, 170, 90, 64), make_tile(7, 170, 91, 64), false, false);
   expect_identical_shared_edge(make_tile(12, 5440, 2880, 64), make_tile(12, 5440, 2881, 64), false,
                                true);
+}
+
+// CesiumJS draws flat triangles between ECEF vertices: over a flat area, a large triangle of a
+// coarse tile cuts under the globe. Far from the scene the geographic tiles are flat, the worst
+// case; the adaptive mesh and the full grid must both stay within the error the tileset declares.
+TEST(QuantizedMesh, SceneTilesDipUnderTheCurvedSurfaceByAtMostTheDeclaredError) {
+  ProductMaker maker(testing::example_source("mountain-range"));
+  for (const bool regular : {false, true}) {
+    ProductOptions options;
+    options.regular = regular;
+    for (int z = 0; z <= 6; ++z) {
+      const TileRange scene = tiles_covering_area(maker.source(), TileScheme::geographic, z);
+      double worst = 0.0;
+      std::size_t vertices = 0;
+      const auto tiles = testing::curvature_probe_tiles(z, {{z, scene.min_x, scene.min_y}});
+      for (const TileAddress& a : tiles) {
+        Result<Product> product =
+            maker.make(TileScheme::geographic, a, TileFormat::quantized_mesh, options);
+        ASSERT_TRUE(product.ok()) << product.error().message;
+        const QuantizedMesh qm = decode(gzip_decompress(product->bytes, 1u << 26).value());
+        const double dip =
+            testing::max_dip_below_surface(qm, testing::geographic_tile_bounds(a), regular ? 4 : 8);
+        EXPECT_LE(dip, testing::cesium_level_maximum_geometric_error(z))
+            << (regular ? "regular " : "adaptive ") << a.z << "/" << a.x << "/" << a.y;
+        worst = std::max(worst, dip);
+        vertices += qm.u.size();
+      }
+      std::printf("%s zoom %d: %.1f vertices per tile, largest dip %.0f m, declared error %.0f m\n",
+                  regular ? "regular" : "adaptive", z, double(vertices) / double(tiles.size()),
+                  worst, testing::cesium_level_maximum_geometric_error(z));
+    }
+  }
 }
 
 TEST(QuantizedMesh, EdgeQuantumIsTheSmallestFittingPowerOfTwo) {

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "terrain/tile.hpp"
+
 namespace terrain {
 
 /// A triangulation of an n×n grid of samples (row 0 north, column 0 west).
@@ -44,5 +46,20 @@ TileMesh triangulate_grid(int grid_size);
 /// Vertices are listed in increasing grid index; triangles in depth-first order of the RTIN
 /// hierarchy; both are deterministic functions of the heights and max_error.
 TileMesh triangulate_rtin(const float* heights, int grid_size, float max_error);
+
+/// triangulate_rtin for a client that draws the mesh on the globe, as CesiumJS draws
+/// quantized-mesh: each vertex at its height above the WGS84 ellipsoid in Earth-centred
+/// coordinates, flat triangles between. `degrees` gives the longitudes of the first and last
+/// columns and the latitudes of the first (north) and last rows; samples are evenly spaced.
+///
+/// A triangle's error is measured at every sample it covers along the sample's ellipsoid normal:
+/// the larger of the distance between the sample's point and the drawn triangle, and how far the
+/// drawn triangle lies under the heights interpolated between its corners (the chordal sag of
+/// the flat triangle under the curved surface). So every sample lies within max_error of the
+/// drawn mesh, and no triangle cuts under its own curved surface by more than max_error at a
+/// sample. Triangles degenerate in space (two corners at a pole) split. Same hierarchy,
+/// full-resolution boundary, conformity and order as triangulate_rtin.
+TileMesh triangulate_rtin_on_ellipsoid(const float* heights, int grid_size,
+                                       const TileBounds& degrees, float max_error);
 
 }  // namespace terrain

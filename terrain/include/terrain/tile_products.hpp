@@ -90,8 +90,20 @@ Result<Product> encode_product(const HeightTile& tile, TileFormat format,
                                const ProductOptions& options, const ProductConstants& constants,
                                const Georeference& georeference, MeshExtras extras = {});
 
-/// The triangulation encode_product uses for a mesh tile.
-TileMesh triangulate_for(const HeightTile& tile, const ProductOptions& options);
+/// The geometric error CesiumTerrainProvider declares for level z of a geographic layer.json (two
+/// root tiles): WGS84's maximum radius·2π·0.25 / (65·2), halved per level
+/// (getLevelMaximumGeometricError). Cesium refines a tile when this error, projected on the
+/// screen, exceeds its maximum screen-space error, so a tile must not stray further from the
+/// surface.
+double cesium_level_geometric_error(int z);
+
+/// The triangulation encode_product uses for a mesh tile in `format`. Quantized-mesh (drawn on
+/// the globe in Earth-centred coordinates) is triangulated on the ellipsoid
+/// (triangulate_rtin_on_ellipsoid) within options.max_error or, by default, the smaller of a
+/// quarter of the ground spacing and 0.9 × cesium_level_geometric_error(z); glTF and Draco
+/// (local coordinates) on the flat height grid within options.max_error or a quarter of the
+/// ground spacing.
+TileMesh triangulate_for(const HeightTile& tile, const ProductOptions& options, TileFormat format);
 
 /// Makes products. Holds a TileGenerator, so it is not thread-safe: use one per thread.
 class ProductMaker {
@@ -113,7 +125,8 @@ class ProductMaker {
   Result<HeightTile> height_tile(TileScheme scheme, const TileAddress& address, TileFormat format,
                                  const ProductOptions& options = {});
   /// The triangulation `make` uses for a mesh tile.
-  TileMesh triangulate(const HeightTile& tile, const ProductOptions& options) const;
+  TileMesh triangulate(const HeightTile& tile, const ProductOptions& options,
+                       TileFormat format) const;
   /// The default error allowance for meshes at zoom z (metres).
   double default_max_error(TileScheme scheme, int z, int grid) const;
 
