@@ -1960,7 +1960,15 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
       return problem(request, http::status::bad_request, "Bad sample",
                      "lon must be a longitude in degrees, -180 to 180", "/lon");
     }
-    const double la = *lat, lo = *lon;
+    // lod: the spacing in metres of the samples whose level of detail to use (as a tile's);
+    // absent or 0, full detail.
+    const std::string lod_text = target.get("lod");
+    const auto lod = lod_text.empty() ? std::optional<double>(0.0) : parse_double(lod_text);
+    if (!lod || !(*lod >= 0.0 && *lod <= 1e7)) {
+      return problem(request, http::status::bad_request, "Bad sample",
+                     "lod must be a sample spacing in metres, 0 to 1e7", "/lod");
+    }
+    const double la = *lat, lo = *lon, spacing = *lod;
     Deferred deferred;
     deferred.cost = static_cast<double>(world->rules().max_level) + 40.0;
     deferred.work = [=, this]() -> Response {
@@ -1969,7 +1977,8 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
       std::unique_ptr<planet::Sampler>& sampler = samplers[id];
       if (!sampler) sampler = std::make_unique<planet::Sampler>(world);
       const auto start = std::chrono::steady_clock::now();
-      json body = planet::sample_json(la, lo, sampler->sample(la, lo));
+      json body = planet::sample_json(
+          la, lo, spacing > 0.0 ? sampler->sample(la, lo, spacing) : sampler->sample(la, lo));
       body["id"] = id;
       metrics_.generation(
           "planet_sample",

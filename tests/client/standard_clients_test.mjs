@@ -12,7 +12,7 @@
 //     view, dips under the true surface by no more than the geometric error CesiumJS assumes for
 //     the level drawn there (no facets);
 //   - MapLibre: a raster-dem source given only the TileJSON, hillshade and 3D terrain, for a
-//     scene; queryTerrainElevation at the DEM's pixel centres agrees with /sample within the
+//     scene and the default planet (Web Mercator tiles); queryTerrainElevation at the DEM's pixel centres agrees with /sample within the
 //     terrain-RGB quantum.
 //
 // The libraries load from the URLs the pages name (cesium.com, unpkg.com); the test answers those
@@ -345,12 +345,31 @@ async function cesiumPlanet() {
   await context.close();
 }
 
-// --- MapLibre: a scene ------------------------------------------------------------------------
+// --- MapLibre: a scene and the default planet -------------------------------------------------
 
-async function maplibreScene() {
-  const name = `MapLibre scene ${SCENE}`;
+/// How to ask /sample for the height of a DEM pixel of Web Mercator zoom z: [lon, lat] → metres.
+async function sceneSampler(z) {
+  const g = { latitude: 0, longitude: 0, heading: 0,
+              ...(await getJson(`${api}/api/v1/scenes/${SCENE}`)).georeference };
+  // A tile's samples are at the level of detail of its spacing (docs/tiles.md).
+  const lod = 2 * Math.PI * EARTH_RADIUS * Math.cos(g.latitude * Math.PI / 180) / (2 ** z * 256);
+  return async ([lon, lat]) => {
+    const [[x, y]] = sceneXY(g, [[lon, lat]]);
+    return (await getJson(`${api}/api/v1/scenes/${SCENE}/sample?x=${x}&y=${y}&lod=${lod}`)).elevation;
+  };
+}
+
+async function planetSampler(z) {
+  const { radius } = await getJson(`${api}/api/v1/planets/default`);
+  // A Web Mercator planet tile spans the longitude of a geographic tile one zoom up (docs/planet.md).
+  const lod = 2 * Math.PI * radius / (2 ** z * 256);
+  return async ([lon, lat]) =>
+    (await getJson(`${api}/api/v1/planets/default/sample?lat=${lat}&lon=${lon}&lod=${lod}`)).ground;
+}
+
+async function maplibre(name, query, samplerFor) {
   const { page, context, seen } = await openExample(
-    `maplibre.html?server=${encodeURIComponent(api)}&scene=${SCENE}`);
+    `maplibre.html?server=${encodeURIComponent(api)}&${query}`);
   const ready = await waitFor(page, () => window.terrainExample?.ready &&
     window.terrainExample.map.loaded() && window.terrainExample.demTilesLoaded.length > 0,
     240000, `${name}: map loaded`);
@@ -362,7 +381,7 @@ async function maplibreScene() {
   const report = await page.evaluate(() => ({ errors: window.terrainExample.errors,
                                               dem: window.terrainExample.demTilesLoaded }));
   console.log(`     ${name}: ${report.dem.length} DEM tiles decoded`);
-  check(ready && report.dem.length > 0, `${name}: DEM tiles loaded`);
+  check(report.dem.length > 0, `${name}: DEM tiles loaded`);
   checkNoErrors(page, seen, report, name);
   await checkPicture(page, name);
 
@@ -382,7 +401,6 @@ async function maplibreScene() {
   const part = 256 >> (tile.z - dem.z);
   const left = (tile.x - (dem.x << (tile.z - dem.z))) * part;
   const top = (tile.y - (dem.y << (tile.z - dem.z))) * part;
-  const g = { latitude: 0, longitude: 0, heading: 0, ...(await getJson(`${api}/api/v1/scenes/${SCENE}`)).georeference };
   const points = [];
   for (const [i, j] of [[0.1, 0.1], [0.5, 0.5], [0.8, 0.2], [0.3, 0.75], [0.9, 0.9], [0.05, 0.6]]) {
     const px = left + Math.floor(i * part), py = top + Math.floor(j * part);
@@ -392,17 +410,14 @@ async function maplibreScene() {
   }
   const elevations = await page.evaluate((points) =>
     points.map((p) => window.terrainExample.map.queryTerrainElevation(p)), points);
-  const xy = sceneXY(g, points);
-  const spacing = 2 * Math.PI * EARTH_RADIUS * Math.cos(g.latitude * Math.PI / 180) /
-                  (2 ** dem.z * 256);
+  const sample = await samplerFor(dem.z);
   let worst = 0;
   for (let k = 0; k < points.length; ++k) {
-    const [x, y] = xy[k];
-    const s = await getJson(`${api}/api/v1/scenes/${SCENE}/sample?x=${x}&y=${y}&lod=${spacing}`);
-    worst = Math.max(worst, Math.abs(elevations[k] - s.elevation));
+    worst = Math.max(worst, Math.abs(elevations[k] - await sample(points[k])));
   }
   console.log(`     ${name}: ${points.length} pixel centres of DEM tile ${dem.z}/${dem.x}/${dem.y} ` +
-              `drawn under ${tile.z}/${tile.x}/${tile.y}: largest |queryTerrainElevation − /sample| ${worst.toFixed(3)} m`);
+              `drawn under ${tile.z}/${tile.x}/${tile.y}: largest |queryTerrainElevation − /sample| ` +
+              `${worst.toFixed(3)} m`);
   // terrain-RGB rounds to 0.1 m: half of it, and a little for the pixel centre's position.
   check(elevations.every((e) => typeof e === 'number') && worst <= 0.06,
         `${name}: queryTerrainElevation agrees with /sample within the terrain-RGB quantum`);
@@ -415,7 +430,8 @@ try {
   check(index.ok && (await index.text()).includes('cesium.html'), '/examples/ lists the example pages');
   await cesiumScene();
   await cesiumPlanet();
-  await maplibreScene();
+  await maplibre(`MapLibre scene ${SCENE}`, `scene=${SCENE}`, sceneSampler);
+  await maplibre('MapLibre planet default', 'planet=default', planetSampler);
 } catch (e) {
   check(false, `unexpected: ${e.stack || e}`);
 } finally {

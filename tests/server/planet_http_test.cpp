@@ -340,6 +340,16 @@ TEST_F(HttpPlanets, LayerJsonAndTileJsonDescribeTheGeographicTiles) {
   EXPECT_EQ(bytes_of(tile.body()), expected->bytes);
 }
 
+TEST_F(HttpPlanets, SampleAtALevelOfDetailIsTheTilesHeight) {
+  planet::Sampler sampler(planet::Planet::create(default_definition()));
+  const std::string p = "/api/v1/planets/" + default_id_ + "/sample?lat=12.5&lon=33.25";
+  const json coarse = body_json(get(p + "&lod=5000"));
+  EXPECT_EQ(coarse["ground"].get<double>(), sampler.sample(12.5, 33.25, 5000.0).ground);
+  EXPECT_EQ(body_json(get(p + "&lod=0"))["ground"].get<double>(), sampler.sample(12.5, 33.25).ground);
+  expect_problem(get(p + "&lod=-1"), 400, "/lod");
+  expect_problem(get(p + "&lod=far"), 400, "/lod");
+}
+
 TEST_F(HttpPlanets, SampleGivesGroundWaterAndTypeAsThePlanetLibraryDoes) {
   planet::Sampler sampler(planet::Planet::create(default_definition()));
   const std::set<std::string> types = {"sea", "coast", "land", "river"};
