@@ -415,7 +415,10 @@ int cmd_export(const Args& args) {
   rules.deepest = [constants](TileScheme scheme) {
     return constants.max_useful_zoom[static_cast<int>(scheme)];
   };
+  // Without --bbox: the tiles over the scene's area; geographic zoom 0 whole, as layer.json
+  // lists both root tiles (CesiumJS needs them).
   rules.default_range = [source](TileScheme scheme, int z) {
+    if (scheme == TileScheme::geographic && z == 0) return TileRange{0, 0, 1, 0};
     return tiles_covering_area(source, scheme, z);
   };
   const std::optional<tools::ExportRequest> request = tools::parse_export(args, rules);
