@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "cli_args.hpp"
+#include "export_command.hpp"
 #include "planet/continent_map.hpp"
 #include "planet/picture.hpp"
 #include "planet/planet.hpp"
@@ -33,7 +34,12 @@ Usage:
   planet tile PLANET.json Z X Y -o OUT.{png,tif,terrain,glb,drc} [--encoding E] [--size N]
        [--grid N] [--gunzip]             one geographic (EPSG:4326, TMS) tile
   planet layer-json PLANET.json          Cesium layer.json for the planet's tiles
-  planet --help
+  planet export [PLANET.json|default]    an offline pack (MBTiles 1.3 or PMTiles v3) of the
+                                         planet's geographic tiles as the server serves them
+                                         (docs/packs.md); default: config/planets/default.json
+)";
+
+constexpr const char* kUsageEnd = R"(  planet --help
 
   --continent-map MAP.png (any command): continents from a greyscale equirectangular PNG
   (white = land, at least 0.5) instead of random ones. The definition's continent_map becomes
@@ -72,6 +78,48 @@ std::optional<std::vector<std::uint8_t>> read_file(const std::string& path) {
   return bytes;
 }
 
+// The tiles are planned and checked before the planet is built (which takes a while).
+int cmd_export(const Args& args, const PlanetDefinition& definition, const ContinentMap* map) {
+  tools::ExportRules rules;
+  rules.command = "planet export";
+  rules.png_scheme = terrain::TileScheme::geographic;
+  rules.deepest = [](terrain::TileScheme) { return PlanetTiles::max_zoom(); };
+  const std::optional<tools::ExportRequest> request = tools::parse_export(args, rules);
+  if (!request) return 2;
+  Result<std::shared_ptr<const Planet>> built =
+      Planet::build(definition, map, {std::max(request->threads, 1)});
+  if (!built) {
+    std::cerr << "planet export: " << built.error().pointer << ": " << built.error().message
+              << "\n";
+    return 1;
+  }
+  const std::shared_ptr<const Planet> world = std::move(built).value();
+  tools::ExportSource pack;
+  pack.source_id = world->id();
+  pack.name = "planet " + world->id();
+  pack.description = "planet export of " + world->id() +
+                     ": geographic tiles (EPSG:4326, TMS rows, two root tiles), not Web Mercator";
+  const terrain::TileFormat format = request->format;
+  if (format == terrain::TileFormat::quantized_mesh) {
+    terrain::LayerJsonOptions options;
+    options.name = world->id();
+    nlohmann::json layer = PlanetTiles::layer_json(options);
+    layer["maxzoom"] = request->zooms.back().z;
+    pack.extra["layer_json"] = layer;
+  }
+  // One PlanetTiles per thread, with the server's default options.
+  pack.factory = [world, format]() -> terrain::MakeTile {
+    auto tiles = std::make_shared<PlanetTiles>(world);
+    return [tiles,
+            format](const terrain::TileAddress& address) -> Result<std::vector<std::uint8_t>> {
+      Result<terrain::Product> product = tiles->make(address, format, terrain::ProductOptions{});
+      if (!product) return product.error();
+      return std::move(product->bytes);
+    };
+  };
+  return tools::run_export(rules, *request, pack);
+}
+
 int run(const Args& args) {
   const std::string& command = args.positional[0];
   Result<PlanetDefinition> definition = load_planet_file(args.positional[1]);
@@ -106,6 +154,7 @@ int run(const Args& args) {
               << definition->continent_map << "; give the image with --continent-map FILE.png\n";
     return 1;
   }
+  if (command == "export") return cmd_export(args, *definition, map ? &*map : nullptr);
   if (command == "id") {
     std::cout << nlohmann::json{{"id", planet_id(*definition)},
                                 {"definition", canonical_json(*definition)}}
@@ -225,7 +274,7 @@ int run(const Args& args) {
     std::cout << tiles.layer_json(options).dump(2) << "\n";
     return 0;
   }
-  std::cerr << kUsage;
+  std::cerr << kUsage << tools::kExportOptionsUsage << kUsageEnd;
   return 2;
 }
 
@@ -239,12 +288,18 @@ int main(int argc, char** argv) {
   }
   const Args& args = *parsed;
   if (args.has("--help")) {
-    std::cout << kUsage;
+    std::cout << kUsage << tools::kExportOptionsUsage << kUsageEnd;
     return 0;
   }
-  if (args.positional.size() < 2) {
+  Args with_planet = args;
+  if (!args.positional.empty() && args.positional[0] == "export" &&
+      (args.positional.size() == 1 || args.positional[1] == "default")) {
+    with_planet.positional.resize(1);
+    with_planet.positional.push_back(TERRAIN_DEFAULT_PLANET);
+  }
+  if (with_planet.positional.size() < 2) {
     std::cerr << kUsage;
     return 2;
   }
-  return run(args);
+  return run(with_planet);
 }

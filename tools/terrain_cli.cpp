@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "cli_args.hpp"
+#include "export_command.hpp"
 #include "gpu/backend.hpp"
 #include "terrain/evaluate.hpp"
 #include "terrain/geotiff.hpp"
@@ -49,7 +50,13 @@ Usage:
                                          --gunzip; prints what it wrote as JSON, with the
                                          evaluator (backend, default cpu; gpu = EGL compute)
   terrain layer-json SCENE.json          Cesium layer.json for the scene's geographic tiles
-  terrain program SCENE.json             the compiled program as JSON
+  terrain export SCENE.json              an offline pack (MBTiles 1.3 or PMTiles v3) of the tiles
+                                         the server serves: PNG in Web Mercator XYZ, meshes
+                                         geographic (docs/packs.md)
+)";
+
+constexpr const char* kUsageEnd =
+    R"(  terrain program SCENE.json             the compiled program as JSON
   terrain nodes                          every node type: summary and example (JSON)
   terrain --help
 
@@ -411,6 +418,60 @@ int cmd_layer_json(const Args& args) {
   return 0;
 }
 
+int cmd_export(const Args& args) {
+  auto maker = product_maker(args.positional.at(1));
+  if (!maker) return 1;
+  const ProductConstants constants = maker->constants();
+  const TileSource source = maker->source();
+  tools::ExportRules rules;
+  rules.command = "terrain export";
+  rules.png_scheme = TileScheme::webmercator;
+  rules.deepest = [constants](TileScheme scheme) {
+    return constants.max_useful_zoom[static_cast<int>(scheme)];
+  };
+  // Without --bbox: the tiles over the scene's area; geographic zoom 0 whole, as layer.json
+  // lists both root tiles (CesiumJS needs them).
+  rules.default_range = [source](TileScheme scheme, int z) {
+    if (scheme == TileScheme::geographic && z == 0) return TileRange{0, 0, 1, 0};
+    return tiles_covering_area(source, scheme, z);
+  };
+  const std::optional<tools::ExportRequest> request = tools::parse_export(args, rules);
+  if (!request) return 2;
+  tools::ExportSource pack;
+  const std::string& hash = source.terrain->scene_hash;
+  pack.source_id = hash;
+  Result<Scene> scene = load_scene_file(args.positional[1]);
+  pack.name = scene && !scene->name.empty() ? scene->name : hash;
+  pack.description = "terrain export of scene " + hash;
+  if (request->format == TileFormat::quantized_mesh) {
+    // What the server's layer.json says, trimmed to the pack's zooms.
+    LayerJsonOptions options;
+    options.name = pack.name;
+    nlohmann::json layer = maker->layer_json(options);
+    const int last = request->zooms.back().z;
+    layer["maxzoom"] = last;
+    if (layer.contains("available") &&
+        layer["available"].size() > static_cast<std::size_t>(last) + 1) {
+      layer["available"].erase(layer["available"].begin() + last + 1, layer["available"].end());
+    }
+    pack.extra["layer_json"] = layer;
+  }
+  const TileScheme scheme = request->scheme;
+  const TileFormat format = request->format;
+  // One ProductMaker per thread, with the server's default options (for quantized-mesh those
+  // are what a default CesiumJS client asks for: normals, water mask and metadata).
+  pack.factory = [source, scheme, format]() -> MakeTile {
+    auto tiles = std::make_shared<ProductMaker>(source);
+    return
+        [tiles, scheme, format](const TileAddress& address) -> Result<std::vector<std::uint8_t>> {
+          Result<Product> product = tiles->make(scheme, address, format, ProductOptions{});
+          if (!product) return product.error();
+          return std::move(product->bytes);
+        };
+  };
+  return tools::run_export(rules, *request, pack);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -421,7 +482,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (args->has("--help") || args->has("-h") || args->positional.empty()) {
-    std::cout << kUsage;
+    std::cout << kUsage << tools::kExportOptionsUsage << kUsageEnd;
     return args->positional.empty() && !args->has("--help") && !args->has("-h") ? 2 : 0;
   }
   const std::string& command = args->positional[0];
@@ -437,6 +498,7 @@ int main(int argc, char** argv) {
   if (command == "program") return cmd_program(*args);
   if (command == "tile") return cmd_tile(*args);
   if (command == "layer-json") return cmd_layer_json(*args);
+  if (command == "export") return cmd_export(*args);
   std::cerr << "terrain: unknown command '" << command << "'\n" << kUsage;
   return 2;
 }
