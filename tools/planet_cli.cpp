@@ -32,7 +32,9 @@ Usage:
   planet picture PLANET.json -o OUT.png [--width W] [--threads N]
                                          equirectangular picture, hillshaded and coloured
   planet tile PLANET.json Z X Y -o OUT.{png,tif,terrain,glb,drc} [--encoding E] [--size N]
-       [--grid N] [--gunzip]             one geographic (EPSG:4326, TMS) tile
+       [--grid N] [--gunzip] [--scheme S]
+                                         one tile: S = geographic (EPSG:4326, TMS; default) or
+                                         webmercator (EPSG:3857 XYZ, height images)
   planet layer-json PLANET.json          Cesium layer.json for the planet's tiles
   planet export [PLANET.json|default]    an offline pack (MBTiles 1.3 or PMTiles v3) of the
                                          planet's geographic tiles as the server serves them
@@ -82,8 +84,9 @@ std::optional<std::vector<std::uint8_t>> read_file(const std::string& path) {
 int cmd_export(const Args& args, const PlanetDefinition& definition, const ContinentMap* map) {
   tools::ExportRules rules;
   rules.command = "planet export";
-  rules.png_scheme = terrain::TileScheme::geographic;
-  rules.deepest = [](terrain::TileScheme) { return PlanetTiles::max_zoom(); };
+  // Height images on Web Mercator, as MBTiles 1.3 and MapLibre expect; meshes geographic.
+  rules.png_scheme = terrain::TileScheme::webmercator;
+  rules.deepest = [](terrain::TileScheme scheme) { return terrain::max_zoom(scheme); };
   const std::optional<tools::ExportRequest> request = tools::parse_export(args, rules);
   if (!request) return 2;
   Result<std::shared_ptr<const Planet>> built =
@@ -97,9 +100,13 @@ int cmd_export(const Args& args, const PlanetDefinition& definition, const Conti
   tools::ExportSource pack;
   pack.source_id = world->id();
   pack.name = "planet " + world->id();
-  pack.description = "planet export of " + world->id() +
-                     ": geographic tiles (EPSG:4326, TMS rows, two root tiles), not Web Mercator";
   const terrain::TileFormat format = request->format;
+  const terrain::TileScheme scheme = request->scheme;
+  pack.description =
+      "planet export of " + world->id() +
+      (scheme == terrain::TileScheme::geographic
+           ? ": geographic tiles (EPSG:4326, TMS rows, two root tiles), not Web Mercator"
+           : ": Web Mercator (EPSG:3857) XYZ height tiles");
   if (format == terrain::TileFormat::quantized_mesh) {
     terrain::LayerJsonOptions options;
     options.name = world->id();
@@ -108,11 +115,12 @@ int cmd_export(const Args& args, const PlanetDefinition& definition, const Conti
     pack.extra["layer_json"] = layer;
   }
   // One PlanetTiles per thread, with the server's default options.
-  pack.factory = [world, format]() -> terrain::MakeTile {
+  pack.factory = [world, format, scheme]() -> terrain::MakeTile {
     auto tiles = std::make_shared<PlanetTiles>(world);
-    return [tiles,
-            format](const terrain::TileAddress& address) -> Result<std::vector<std::uint8_t>> {
-      Result<terrain::Product> product = tiles->make(address, format, terrain::ProductOptions{});
+    return [tiles, format,
+            scheme](const terrain::TileAddress& address) -> Result<std::vector<std::uint8_t>> {
+      Result<terrain::Product> product =
+          tiles->make(scheme, address, format, terrain::ProductOptions{});
       if (!product) return product.error();
       return std::move(product->bytes);
     };
@@ -244,7 +252,12 @@ int run(const Args& args) {
     const terrain::TileAddress address{static_cast<int>(*z), static_cast<std::int64_t>(*x),
                                        static_cast<std::int64_t>(*y)};
     const auto t0 = std::chrono::steady_clock::now();
-    Result<terrain::Product> product = tiles.make(address, *format, options);
+    Result<terrain::TileScheme> scheme = terrain::parse_scheme(args.get("--scheme", "geographic"));
+    if (!scheme) {
+      std::cerr << "planet tile: --scheme: " << scheme.error().message << "\n";
+      return 2;
+    }
+    Result<terrain::Product> product = tiles.make(*scheme, address, *format, options);
     const double ms = elapsed_ms(t0);
     if (!product) {
       std::cerr << "planet tile: " << product.error().pointer << ": " << product.error().message

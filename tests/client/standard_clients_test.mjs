@@ -205,27 +205,37 @@ async function cesiumHeights(page, points) {
 
 // --- CesiumJS: a scene ------------------------------------------------------------------------
 
-async function cesiumScene() {
-  const name = `CesiumJS scene ${SCENE}`;
-  const { page, context, seen } = await openExample(
-    `cesium.html?server=${encodeURIComponent(api)}&scene=${SCENE}`);
+/// Opens cesium.html on `query` and waits until Cesium has drawn tiles; checks the tiles, the
+/// errors and the picture. Returns the page (null when it never drew) and the levels drawn.
+async function openCesium(name, query) {
+  const opened = await openExample(`cesium.html?server=${encodeURIComponent(api)}&${query}`);
+  const { page, context, seen } = opened;
   const ready = await waitFor(page, () => window.terrainExample?.ready &&
     window.terrainExample.drawnTiles > 0 && window.terrainExample.viewer.scene.globe.tilesLoaded,
     240000, `${name}: tiles drawn`);
-  if (!ready) { await context.close(); return; }
+  if (!ready) { await context.close(); return null; }
   await page.waitForTimeout(1000);
   const report = await page.evaluate(() => {
     const r = window.terrainExample;
     const levels = r.viewer.scene.globe._surface._tilesToRender.map((t) => t.level);
     return { errors: r.errors, drawnTiles: r.drawnTiles, tileRequests: r.tileRequests,
-             tilesReceived: r.tilesReceived, deepestDrawn: Math.max(...levels) };
+             tilesReceived: r.tilesReceived, levels: [...new Set(levels)].sort((a, b) => a - b) };
   });
   console.log(`     ${name}: ${report.tileRequests} tile requests, ${report.tilesReceived} meshes ` +
-              `decoded, ${report.drawnTiles} tiles drawn (deepest level ${report.deepestDrawn})`);
-  check(ready && report.drawnTiles > 0 && report.tilesReceived > 0, `${name}: tiles drawn`);
-  check(report.deepestDrawn >= 10, `${name}: the view reaches the scene's detail (level ≥ 10)`);
+              `decoded, ${report.drawnTiles} tiles drawn at levels ${report.levels.join(', ')}`);
+  check(report.drawnTiles > 0 && report.tilesReceived > 0, `${name}: tiles drawn`);
   checkNoErrors(page, seen, report, name);
   await checkPicture(page, name);
+  return { ...opened, levels: report.levels };
+}
+
+
+async function cesiumScene() {
+  const name = `CesiumJS scene ${SCENE}`;
+  const opened = await openCesium(name, `scene=${SCENE}`);
+  if (!opened) return;
+  const { page, context, seen, levels } = opened;
+  check(Math.max(...levels) >= 10, `${name}: the view reaches the scene's detail (level ≥ 10)`);
 
   // Heights at vertices of the deepest tiles: CesiumJS against /sample.
   const layer = await getJson(`${api}/api/v1/scenes/${SCENE}/layer.json`);
@@ -256,24 +266,9 @@ async function cesiumScene() {
 
 async function cesiumPlanet() {
   const name = 'CesiumJS planet default';
-  const { page, context, seen } = await openExample(
-    `cesium.html?server=${encodeURIComponent(api)}&planet=default`);
-  const ready = await waitFor(page, () => window.terrainExample?.ready &&
-    window.terrainExample.drawnTiles > 0 && window.terrainExample.viewer.scene.globe.tilesLoaded,
-    240000, `${name}: tiles drawn`);
-  if (!ready) { await context.close(); return; }
-  await page.waitForTimeout(1000);
-  const report = await page.evaluate(() => {
-    const r = window.terrainExample;
-    const levels = r.viewer.scene.globe._surface._tilesToRender.map((t) => t.level);
-    return { errors: r.errors, drawnTiles: r.drawnTiles, tileRequests: r.tileRequests,
-             tilesReceived: r.tilesReceived, levels: [...new Set(levels)].sort((a, b) => a - b) };
-  });
-  console.log(`     ${name}: ${report.tileRequests} tile requests, ${report.tilesReceived} meshes ` +
-              `decoded, ${report.drawnTiles} tiles drawn at levels ${report.levels.join(', ')}`);
-  check(ready && report.drawnTiles > 0, `${name}: tiles drawn`);
-  checkNoErrors(page, seen, report, name);
-  await checkPicture(page, name);
+  const opened = await openCesium(name, 'planet=default');
+  if (!opened) return;
+  const { page, context, seen } = opened;
 
   // No facets, from orbit and from nearer (tiles of zooms 0–3): rays through the view hit the
   // drawn globe; where they hit, the drawn surface may lie under the true one (the planet's

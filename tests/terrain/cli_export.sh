@@ -109,13 +109,18 @@ expect_error '-o' "$out/bad.zip" "$cli" export "$scene" -o "$out/bad.zip" --zoom
 expect_error '--bbox' "$out/p.mbtiles" "$planet" export -o "$out/p.mbtiles" --zoom 2 \
   --bbox 0,0,190,10
 
-# The default planet: geographic tiles, stored one PMTiles zoom down.
+# The default planet: height images on Web Mercator (GDAL places them), meshes geographic,
+# stored one PMTiles zoom down.
 "$planet" export -o "$out/p.pmtiles" --zoom 0-1 --threads 2 > "$out/p.json"
-[ "$(field 'j.tiles' < "$out/p.json")" = 10 ] || fail "a planet's zooms 0-1 are 10 tiles"
-node "$reader" "$out/p.pmtiles" 2 3 1 "$out/p-from-pack.png" > "$out/p-read.json"
-[ "$(field 'j.metadata.crs' < "$out/p-read.json")" = EPSG:4326 ] || fail "planet pack CRS"
-"$planet" tile "$(dirname "$scene")/../planets/default.json" 1 3 1 -o "$out/p-served.png" > /dev/null
-cmp "$out/p-from-pack.png" "$out/p-served.png" || fail "planet tile 1/3/1 differs"
+[ "$(field 'j.tiles' < "$out/p.json")" = 5 ] || fail "a planet's Web Mercator zooms 0-1 are 5 tiles"
+node "$reader" "$out/p.pmtiles" 1 1 0 "$out/p-from-pack.png" > "$out/p-read.json"
+[ "$(field 'j.metadata.crs' < "$out/p-read.json")" = EPSG:3857 ] || fail "planet pack CRS"
+"$planet" tile "$(dirname "$scene")/../planets/default.json" 1 1 0 --scheme webmercator \
+  -o "$out/p-served.png" > /dev/null
+cmp "$out/p-from-pack.png" "$out/p-served.png" || fail "planet tile 1/1/0 differs"
+"$planet" export default -o "$out/p-png.mbtiles" --zoom 0-1 > /dev/null
+gdalinfo "$out/p-png.mbtiles" > "$out/p-gdalinfo.txt" || fail "gdalinfo cannot read the planet pack"
+grep -q 'Pseudo-Mercator' "$out/p-gdalinfo.txt" || fail "planet MBTiles pack is not Web Mercator"
 "$planet" export default -o "$out/p.mbtiles" --zoom 0 --format terrain > "$out/pm.json"
 [ "$(field 'j.tiles' < "$out/pm.json")" = 2 ] || fail "a planet's zoom 0 is 2 tiles"
 echo "exports written, read back and checked"
