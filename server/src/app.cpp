@@ -896,6 +896,12 @@ Outcome App::route(const Request& request, const Target& target) {
       r.set(http::field::cache_control, "public, max-age=60");
       return r;
     }
+    if (!path.ends_with('/') && client_.find(path + "/") != nullptr) {
+      // A folder named without its slash: its page's relative links need the slash.
+      Response r = make_response(request, http::status::moved_permanently, "", "text/plain");
+      r.set(http::field::location, path + "/");
+      return r;
+    }
     if (path == "/" && client_.empty()) {
       return problem(request, http::status::not_found, "No browser client",
                      "the browser client is not installed (client.dir = " + config_.client_dir +

@@ -27,6 +27,7 @@ class AppTest : public ::testing::Test {
     config.scenes_dir = std::string(TERRAIN_SOURCE_DIR) + "/config/scenes";
     config.planets_dir = std::string(TERRAIN_SOURCE_DIR) + "/config/planets";
     config.cors_origins = {"https://a.example"};
+    config.client_dir = std::string(TERRAIN_SOURCE_DIR) + "/client_web";
     config.write_token = "app-test-token";
     auto store = open_sqlite_store(config.data_dir);
     ASSERT_TRUE(store.ok());
@@ -46,6 +47,22 @@ class AppTest : public ::testing::Test {
   static inline fs::path dir_;
   static inline App* app_ = nullptr;
 };
+
+// The example pages for standard clients sit in a folder of the client: its address, with or
+// without the slash, reaches its index page, whose links are relative.
+TEST_F(AppTest, ExamplesFolderServesItsIndexPage) {
+  const Response index = get("/examples/");
+  ASSERT_EQ(index.result(), http::status::ok);
+  EXPECT_EQ(index[http::field::content_type], "text/html; charset=utf-8");
+  EXPECT_NE(index.body().view().find("cesium.html"), std::string::npos);
+  const Response bare = get("/examples");
+  EXPECT_EQ(bare.result(), http::status::moved_permanently);
+  EXPECT_EQ(bare[http::field::location], "/examples/");
+  EXPECT_EQ(get("/examples/cesium.html").result(), http::status::ok);
+  EXPECT_EQ(get("/examples/maplibre.html").result(), http::status::ok);
+  EXPECT_EQ(get("/").result(), http::status::ok);
+  EXPECT_EQ(get("/examples/nothing.html").result(), http::status::not_found);
+}
 
 TEST_F(AppTest, OpenApiDocumentIsValidJsonServedAsIs) {
   const auto doc = nlohmann::json::parse(openapi_document());
