@@ -1,6 +1,7 @@
 #include "field_reader.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace terrain {
 
@@ -48,6 +49,25 @@ void FieldReader::fail_at(std::string message, std::string pointer) {
   if (!error_) error_ = Error{std::move(message), std::move(pointer)};
 }
 
+bool within_as_float(double value, const NumberRule& rule) {
+  const float stored = static_cast<float>(value);
+  if (!std::isfinite(stored)) return false;
+  if (value != 0.0 && std::abs(stored) < std::numeric_limits<float>::min()) return false;
+  const float min = static_cast<float>(rule.min), max = static_cast<float>(rule.max);
+  return stored >= min && stored <= max && !(rule.exclusive_min && stored <= min);
+}
+
+std::string describe_rule(const NumberRule& rule) {
+  return "must be " + std::string(rule.exclusive_min ? "greater than " : "at least ") +
+         nlohmann::json(rule.min).dump() + " and at most " + nlohmann::json(rule.max).dump();
+}
+
+void FieldReader::declare_number(std::string pointer, const NumberRule& rule) {
+  if (declared_ != nullptr) {
+    declared_->push_back({std::move(pointer), rule.min, rule.max, rule.exclusive_min, false});
+  }
+}
+
 void FieldReader::skip(std::string_view key) {
   read_.emplace(key);
 }
@@ -66,9 +86,15 @@ double FieldReader::number(std::string_view key, std::optional<double> fallback,
       v = fallback.value_or(0.0);
     }
   }
-  if (ok() && (v < rule.min || v > rule.max || (rule.exclusive_min && v <= rule.min))) {
-    fail("must be " + std::string(rule.exclusive_min ? "greater than " : "at least ") +
-             nlohmann::json(rule.min).dump() + " and at most " + nlohmann::json(rule.max).dump(),
+  declare_number(pointer_join(pointer_, key), rule);
+  if (ok() && !within_as_float(v, rule)) {
+    const bool underflows =
+        v != 0.0 && std::abs(static_cast<float>(v)) < std::numeric_limits<float>::min();
+    fail(describe_rule(rule) +
+             (underflows ? " (it is stored as a float32, where " + nlohmann::json(v).dump() +
+                               " is below the "
+                               "smallest normal magnitude 1.17549435e-38)"
+                         : ""),
          key);
   }
   canonical_[std::string(key)] = v;
@@ -78,6 +104,10 @@ double FieldReader::number(std::string_view key, std::optional<double> fallback,
 std::int64_t FieldReader::integer(std::string_view key, std::optional<std::int64_t> fallback,
                                   std::int64_t min, std::int64_t max) {
   const nlohmann::json* value = find(key);
+  if (declared_ != nullptr) {
+    declared_->push_back({pointer_join(pointer_, key), static_cast<double>(min),
+                          static_cast<double>(max), false, true});
+  }
   std::int64_t v = fallback.value_or(0);
   if (value == nullptr) {
     if (!fallback) fail("is required", key);
@@ -141,6 +171,8 @@ Vec2 FieldReader::vec2(std::string_view key, std::optional<Vec2> fallback, Numbe
   const nlohmann::json* value = find(key);
   Vec2 v = fallback.value_or(Vec2{});
   nlohmann::json canonical = nlohmann::json::array({v.x, v.y});
+  declare_number(pointer_join(pointer_join(pointer_, key), 0), rule);
+  declare_number(pointer_join(pointer_join(pointer_, key), 1), rule);
   if (value == nullptr) {
     if (!fallback) fail("is required", key);
   } else if (!value->is_array() || value->size() != 2 || !(*value)[0].is_number() ||
@@ -149,8 +181,8 @@ Vec2 FieldReader::vec2(std::string_view key, std::optional<Vec2> fallback, Numbe
   } else {
     const double x = (*value)[0].get<double>();
     const double y = (*value)[1].get<double>();
-    if (!std::isfinite(x) || !std::isfinite(y) || x < rule.min || x > rule.max || y < rule.min ||
-        y > rule.max) {
+    if (!std::isfinite(x) || !std::isfinite(y) || !within_as_float(x, rule) ||
+        !within_as_float(y, rule)) {
       fail("coordinates must be finite and within [" + nlohmann::json(rule.min).dump() + ", " +
                nlohmann::json(rule.max).dump() + "]",
            key);
@@ -170,6 +202,7 @@ const nlohmann::json* FieldReader::raw(std::string_view key) {
 FieldReader FieldReader::nested(std::string_view key) {
   const nlohmann::json* value = find(key);
   FieldReader reader(value != nullptr ? *value : kEmptyObject, pointer_join(pointer_, key));
+  reader.declared_ = declared_;
   return reader;
 }
 

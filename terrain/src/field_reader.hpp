@@ -8,11 +8,13 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "terrain/math.hpp"
 #include "terrain/result.hpp"
+#include "terrain/scene.hpp"
 
 namespace terrain {
 
@@ -26,6 +28,15 @@ struct NumberRule {
   double max = 1e9;
   bool exclusive_min = false;
 };
+
+/// Whether `value` is within `rule` as it will be stored: rounded to float32, compared with the
+/// limits rounded to float32. So the documented limits themselves are accepted, the canonical
+/// text (which may hold the float's value) parses to the same decision, and a value that rounds
+/// to 0 or to a denormal (which the evaluators cannot divide by) is refused unless it is 0.
+bool within_as_float(double value, const NumberRule& rule);
+
+/// "must be greater than 0 and at most 10000000" for a rule.
+std::string describe_rule(const NumberRule& rule);
 
 class FieldReader {
  public:
@@ -48,6 +59,11 @@ class FieldReader {
   FieldReader nested(std::string_view key);
   void adopt(std::string_view key, FieldReader& nested);
 
+  /// Records the numbers checked from here on (nested readers included) with their rules.
+  void declare_numbers_to(std::vector<DeclaredNumber>* declared) { declared_ = declared; }
+  /// Records a number checked outside number()/vec2()/integer() (raw arrays).
+  void declare_number(std::string pointer, const NumberRule& rule);
+
   void fail(std::string message, std::string_view key = {});
   void fail_at(std::string message, std::string pointer);
   /// Marks keys handled elsewhere (type, id, children, ref).
@@ -69,6 +85,7 @@ class FieldReader {
   nlohmann::json canonical_ = nlohmann::json::object();
   std::set<std::string, std::less<>> read_;
   std::optional<Error> error_;
+  std::vector<DeclaredNumber>* declared_ = nullptr;
   static const nlohmann::json kEmptyObject;
 };
 

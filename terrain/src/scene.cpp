@@ -178,6 +178,7 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
   }
 
   FieldReader reader(j, pointer);
+  reader.declare_numbers_to(options_.declared_numbers);
   reader.skip("type");
   reader.skip("id");
   reader.skip("children");

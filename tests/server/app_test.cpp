@@ -22,6 +22,13 @@ class AppTest : public ::testing::Test {
   static void SetUpTestSuite() {
     dir_ = fs::temp_directory_path() / ("terrain-app-" + std::to_string(::getpid()));
     fs::remove_all(dir_);
+    const Config config = test_config();
+    auto store = open_sqlite_store(config.data_dir);
+    ASSERT_TRUE(store.ok());
+    app_ = new App(config, std::move(store).value());
+    ASSERT_TRUE(app_->seed_examples().ok());
+  }
+  static Config test_config() {
     Config config;
     config.data_dir = dir_.string();
     config.scenes_dir = std::string(TERRAIN_SOURCE_DIR) + "/config/scenes";
@@ -29,10 +36,7 @@ class AppTest : public ::testing::Test {
     config.cors_origins = {"https://a.example"};
     config.client_dir = std::string(TERRAIN_SOURCE_DIR) + "/client_web";
     config.write_token = "app-test-token";
-    auto store = open_sqlite_store(config.data_dir);
-    ASSERT_TRUE(store.ok());
-    app_ = new App(config, std::move(store).value());
-    ASSERT_TRUE(app_->seed_examples().ok());
+    return config;
   }
   static void TearDownTestSuite() {
     delete app_;
@@ -254,6 +258,38 @@ TEST_F(AppTest, HeadRefTilesFollowNewVersions) {
   EXPECT_NE(v2[http::field::etag], v1[http::field::etag]);
   EXPECT_EQ(get("/api/v1/scenes/remembered@1/tiles/0/0/0.png?scheme=local")[http::field::etag],
             v1[http::field::etag]);
+}
+
+// The documented minimum scale is stored as the float nearest 1e-4, just below it in double: the
+// stored scene must read back, or every later GET of it and its products would fail.
+TEST_F(AppTest, SceneAtTheMinimumScaleIsStoredAndReadsBack) {
+  const nlohmann::json scene{
+      {"format", "terrain-scene/1"},
+      {"name", "Tiny scale"},
+      {"extent", {{"min", {-1000, -1000}}, {"max", {1000, 1000}}}},
+      {"root",
+       {{"type", "blend"},
+        {"children",
+         {{{"type", "transform"},
+           {"scale", 1e-4},
+           {"children",
+            {{{"type", "disc"}, {"center", {0, 0}}, {"radius", 5e6}, {"elevation", 100}}}}}}}}}};
+  Request post{http::verb::post, "/api/v1/scenes?id=tiny-scale", 11};
+  post.set(http::field::authorization, "Bearer app-test-token");
+  post.body() = scene.dump();
+  post.prepare_payload();
+  const Response created = settle(*app_, post);
+  ASSERT_EQ(created.result(), http::status::created) << created.body().view();
+  // A second server on the same store has nothing in memory: it reads the stored text.
+  auto store = open_sqlite_store(dir_.string());
+  ASSERT_TRUE(store.ok());
+  App restarted(test_config(), std::move(store).value());
+  Request get_scene{http::verb::get, "/api/v1/scenes/tiny-scale", 11};
+  const Response stored = settle(restarted, get_scene);
+  ASSERT_EQ(stored.result(), http::status::ok) << stored.body().view();
+  Request get_tile{http::verb::get, "/api/v1/scenes/tiny-scale@1/tiles/0/0/0.png?scheme=local", 11};
+  const Response tile = settle(restarted, get_tile);
+  EXPECT_EQ(tile.result(), http::status::ok) << tile.body().view();
 }
 
 // What a live connection is sent, kept for the test to read.

@@ -33,9 +33,23 @@ struct SceneLimits {
   std::size_t max_name_bytes = 256;
 };
 
+/// A number a node parser checked, with the range it was checked against (inclusive unless
+/// `exclusive_min`). Ranges are checked on the value as stored, a float32: see
+/// docs/scene-format.md, "Numbers".
+struct DeclaredNumber {
+  std::string pointer;  ///< JSON pointer of the number (an array element for [x, y] pairs)
+  double min = 0.0;
+  double max = 0.0;
+  bool exclusive_min = false;
+  bool integer = false;
+};
+
 struct ParseOptions {
   SceneLimits limits;
   ImageResolver images;  ///< required only by scenes with image primitives
+  /// When set, every number that node parsers check is appended here with its range: the
+  /// property tests enumerate each node type's parameters and limits this way.
+  std::vector<DeclaredNumber>* declared_numbers = nullptr;
 };
 
 /// Optional geographic anchor of the scene's origin (used by geographic tilings).

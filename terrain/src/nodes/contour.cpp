@@ -36,10 +36,12 @@ Result<NodeParams> parse_contour(FieldReader& reader, ParseContext&) {
       reader.fail("must be an array of radii at equally spaced angles", "radii");
       return reader.error();
     }
+    constexpr NumberRule kRadiusRule{0.0, 1e7, true};
     for (std::size_t i = 0; i < raw->size(); ++i) {
       const nlohmann::json& r = (*raw)[i];
-      if (!r.is_number() || !std::isfinite(r.get<double>()) || r.get<double>() <= 0 ||
-          r.get<double>() > 1e7) {
+      reader.declare_number(pointer_join(reader.pointer() + "/radii", i), kRadiusRule);
+      if (!r.is_number() || !std::isfinite(r.get<double>()) ||
+          !within_as_float(r.get<double>(), kRadiusRule)) {
         return Error{"must be a positive radius in metres",
                      pointer_join(reader.pointer() + "/radii", i)};
       }

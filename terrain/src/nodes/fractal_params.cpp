@@ -21,7 +21,7 @@ noise::FractalParams read_fractal(FieldReader& reader, ParseContext& context,
   const std::string kind = reader.choice("kind", default_kind, kKinds);
   const std::string basis = reader.choice("basis", "gradient", kBases);
   const double amplitude = reader.number("amplitude", 100.0, {0.0, 1e5});
-  const double wavelength = reader.number("wavelength", 1000.0, {0.01, 1e7, true});
+  const double wavelength = reader.number("wavelength", 1000.0, {0.01, 1e7});
   p.octaves = static_cast<int>(reader.integer("octaves", 8, 1, 24));
   p.lacunarity = static_cast<float>(reader.number("lacunarity", 2.0, {1.1, 8.0}));
   p.hurst = static_cast<float>(reader.number("hurst", 1.0, {0.05, 2.0}));

@@ -22,12 +22,14 @@ Result<NodeParams> parse_transform(FieldReader& reader, ParseContext&) {
   const Vec2 translate = reader.vec2("translate", Vec2{0, 0}, {-1e7, 1e7});
   const double rotate = reader.number("rotate", 0.0, {-360.0, 360.0});
   Vec2 scale{1, 1};
+  constexpr NumberRule kScaleRule{1e-4, 1e4};
   if (const nlohmann::json* s = reader.raw("scale"); s != nullptr && s->is_number()) {
     const double v = s->get<double>();
-    if (!(v >= 1e-4 && v <= 1e4)) reader.fail("must be from 0.0001 to 10000", "scale");
+    reader.declare_number(pointer_join(reader.pointer(), "scale"), kScaleRule);
+    if (!within_as_float(v, kScaleRule)) reader.fail("must be from 0.0001 to 10000", "scale");
     scale = {static_cast<float>(v), static_cast<float>(v)};
   } else if (s != nullptr) {
-    reader.vec2("scale", std::nullopt, {1e-4, 1e4});
+    reader.vec2("scale", std::nullopt, kScaleRule);
     if (reader.ok()) {
       scale = {static_cast<float>((*s)[0].get<double>()),
                static_cast<float>((*s)[1].get<double>())};
