@@ -14,6 +14,7 @@
 
 #include "terrain/evaluate.hpp"
 #include "terrain/node.hpp"
+#include "terrain/program.hpp"
 #include "terrain/scene.hpp"
 #include "terrain/tile_source.hpp"
 
@@ -60,6 +61,7 @@ std::vector<double> values_at_limits(const DeclaredNumber& d) {
   if (d.exclusive_min) {
     values.push_back(d.min + std::abs(d.min) * 1e-12 + 1e-300);
     values.push_back(d.min + 1e-40);
+    if (d.min == 0.0) values.push_back(std::numeric_limits<float>::min());
   } else {
     values.push_back(d.min);
   }
@@ -134,6 +136,62 @@ TEST_P(EveryNodeTypeAtItsLimits, CanonicalFormParsesAgainAndCompiles) {
     const Result<TileSource> source = TileSource::from_scene(*again);
     EXPECT_TRUE(source.ok()) << label << ": " << (source.ok() ? "" : source.error().message);
   });
+}
+
+bool finite_bounds(const NodeBounds& b) {
+  const bool elevation =
+      b.elevation.empty() || (std::isfinite(b.elevation.lo) && std::isfinite(b.elevation.hi));
+  return elevation && std::isfinite(b.elevation_lipschitz) && std::isfinite(b.weight_lipschitz);
+}
+
+// No valid parameter may make an elevation, a gradient or a bound NaN or infinite: tiles encode
+// them, validation reports the bounds, and the sphere tracer divides by the Lipschitz bound.
+TEST_P(EveryNodeTypeAtItsLimits, ElevationsGradientsAndBoundsStayFinite) {
+  for_each_value_at_limits(*GetParam(), [](const std::string& label, const Scene& scene) {
+    EXPECT_TRUE(finite_bounds(scene.bounds)) << label << ": the scene's bounds";
+    const Program program = testing::compile_or_die(scene);
+    Evaluator evaluator(program);
+    const Box2 region = testing::sampling_box(scene);
+    const Vec2 size = region.size();
+    constexpr int kSteps = 12;
+    for (int j = 0; j <= kSteps; ++j) {
+      for (int i = 0; i <= kSteps; ++i) {
+        const Vec2 p{region.lo.x + size.x * static_cast<float>(i) / kSteps,
+                     region.lo.y + size.y * static_cast<float>(j) / kSteps};
+        const FieldSample s = evaluator.sample(p);
+        ASSERT_TRUE(std::isfinite(s.elevation) && std::isfinite(s.elevation_gradient.x) &&
+                    std::isfinite(s.elevation_gradient.y) && std::isfinite(s.weight))
+            << label << " at (" << p.x << ", " << p.y << "): elevation " << s.elevation
+            << ", gradient (" << s.elevation_gradient.x << ", " << s.elevation_gradient.y << ")";
+      }
+      const Box2 row{{region.lo.x, region.lo.y + size.y * static_cast<float>(j) / kSteps},
+                     {region.hi.x, region.lo.y + size.y * static_cast<float>(j + 1) / kSteps}};
+      EXPECT_TRUE(finite_bounds(evaluator.bounds({row, 0.0f}))) << label << ": bounds of a row";
+    }
+  });
+}
+
+// The blend's background is divided by its threshold: the smallest thresholds a scene may give,
+// with a base far from zero, keep elevations, gradients and bounds finite (1e-300 used to be
+// stored as 0: NaN elevations; 1e-40, a denormal: an infinite Lipschitz bound).
+TEST(BlendThreshold, SmallestAcceptedKeepsEverythingFinite) {
+  for (const double threshold : {1e-300, 1e-40, 1.2e-38, 1e-10, 1e-4}) {
+    const std::string text = R"({"root": {"type": "blend", "base": 100000, "threshold": )" +
+                             nlohmann::json(threshold).dump() + R"(, "children": [
+        {"type": "disc", "center": [0, 0], "radius": 1000, "elevation": -100000}]}})";
+    const Result<Scene> scene = parse_scene_text(text);
+    if (!scene.ok()) {
+      EXPECT_EQ(scene.error().pointer, "/root/threshold") << threshold;
+      continue;
+    }
+    EXPECT_TRUE(finite_bounds(scene->bounds)) << "threshold " << threshold;
+    Evaluator evaluator(testing::compile_or_die(*scene));
+    for (float x = -1500.0f; x <= 1500.0f; x += 37.0f) {
+      const FieldSample s = evaluator.sample({x, 0.0f});
+      ASSERT_TRUE(std::isfinite(s.elevation) && std::isfinite(s.elevation_gradient.x))
+          << "threshold " << threshold << " at x = " << x;
+    }
+  }
 }
 
 std::string type_name(const ::testing::TestParamInfo<const NodeType*>& info) {

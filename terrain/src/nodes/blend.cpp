@@ -13,7 +13,9 @@ constexpr int kThreshold = 0, kBase = 1;
 
 Result<NodeParams> parse_blend(FieldReader& reader, ParseContext& context) {
   NodeParams out;
-  const double threshold = reader.number("threshold", 0.5, {0.0, 1.0, true});
+  // The background's weight is divided by the threshold: below 1e-4 the bounds of a blend whose
+  // base is far from its children's heights overflow float32 (docs/scene-format.md).
+  const double threshold = reader.number("threshold", 0.5, {1e-4, 1.0});
   // The default background is the scene's base level.
   const double base = reader.number("base", context.base_elevation, {-1e5, 1e5});
   if (!reader.ok()) return reader.error();

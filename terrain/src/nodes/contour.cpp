@@ -18,6 +18,10 @@ namespace {
 constexpr int kElevation = 0, kFalloff = 1, kLipschitz = 2, kWeightLipschitz = 3, kCLo = 4,
               kCHi = 5, kBox = 6, kContour = 10;
 
+// A millimetre at least: the sector profiles are scaled by 1/radius, whose bounds overflow
+// float32 for radii near the smallest float.
+constexpr NumberRule kContourRadiusRule{1e-3, 1e7};
+
 constexpr std::array<std::string_view, 4> kContourPresets{"lake", "crater", "plateau", "custom"};
 
 Result<NodeParams> parse_contour(FieldReader& reader, ParseContext&) {
@@ -36,13 +40,13 @@ Result<NodeParams> parse_contour(FieldReader& reader, ParseContext&) {
       reader.fail("must be an array of radii at equally spaced angles", "radii");
       return reader.error();
     }
-    constexpr NumberRule kRadiusRule{0.0, 1e7, true};
+    constexpr NumberRule kRadiusRule = kContourRadiusRule;
     for (std::size_t i = 0; i < raw->size(); ++i) {
       const nlohmann::json& r = (*raw)[i];
       reader.declare_number(pointer_join(reader.pointer() + "/radii", i), kRadiusRule);
       if (!r.is_number() || !std::isfinite(r.get<double>()) ||
           !within_as_float(r.get<double>(), kRadiusRule)) {
-        return Error{"must be a positive radius in metres",
+        return Error{"must be a radius in metres from 0.001 to 10000000",
                      pointer_join(reader.pointer() + "/radii", i)};
       }
       radii.push_back(static_cast<float>(r.get<double>()));
@@ -50,7 +54,7 @@ Result<NodeParams> parse_contour(FieldReader& reader, ParseContext&) {
     }
     reader.canonical()["radii"] = canonical;
   } else {
-    const double r = reader.number("radius", std::nullopt, {0.0, 1e7, true});
+    const double r = reader.number("radius", std::nullopt, kContourRadiusRule);
     radii.assign(3, static_cast<float>(r));
     reader.canonical().erase("radius");
     reader.canonical()["radii"] = nlohmann::json::array({r, r, r});
