@@ -7,6 +7,7 @@
 #include <cstring>
 #include <list>
 #include <map>
+#include <span>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -14,6 +15,7 @@
 
 #include "glsl_sources.hpp"
 #include "gpu/program_glsl.hpp"
+#include "terrain/node.hpp"
 #include "terrain/sphere_trace.hpp"
 
 namespace gpu {
@@ -72,34 +74,6 @@ std::uint64_t fingerprint(const terrain::Program& p) {
   return h;
 }
 
-// An upper estimate of the loop iterations one evaluation of the program runs in the shader:
-// one per instruction, plus each kernel's own loops (fractal octaves, polyline chunks and
-// segments, profile searches). llvmpipe ends every loop of an invocation once 65 535 iterations
-// have run in all (LP_MAX_TGSI_LOOP_ITERATIONS, shared by all loops of a shader), silently: work
-// is split or refused so that no invocation comes near that.
-std::size_t loop_iterations_per_evaluation(const terrain::Program& p) {
-  auto pool_at = [&p](std::size_t i) {
-    return i < p.pool.size() && std::isfinite(p.pool[i]) && p.pool[i] > 0.0f
-               ? static_cast<std::size_t>(p.pool[i])
-               : std::size_t{0};
-  };
-  auto polyline = [&](std::size_t at) { return pool_at(at) + pool_at(at + 1) + 8; };
-  constexpr std::size_t kOctaves = 25, kSearch = 16;
-  std::size_t n = 0;
-  for (const terrain::Instruction& ins : p.code) {
-    n += 1;
-    if (ins.op == Op::leaf && ins.type == 1) n += kOctaves;
-    if (ins.op == Op::leaf && ins.type == 2) {
-      n += polyline(ins.params + pool_at(ins.params + 3)) + 3 * kSearch + pool_at(ins.params + 2);
-    }
-    if (ins.op == Op::leaf && ins.type == 3) n += 2 * kSearch;
-    if (ins.op == Op::leaf && ins.type == 4)
-      n += 4 + polyline(ins.params + pool_at(ins.params + 8));
-    if (ins.op == Op::warp_begin && ins.type == 33) n += 2 * kOctaves;
-  }
-  return n;
-}
-
 // Loop iterations llvmpipe allows one invocation, with room for the tracer's own loops.
 constexpr std::size_t kLoopBudget = 60000;
 // trace_bound's cell loops (at most a quarter of 64 × 64 cells, plus rows and levels) and the
@@ -107,6 +81,25 @@ constexpr std::size_t kLoopBudget = 60000;
 constexpr std::size_t kTraceStepLoops = 64 * 64 / 4 + 64 + 8;
 
 }  // namespace
+
+// One iteration per instruction, plus the node's own loops where its kernel runs: the node type's
+// metadata knows how to read them from its parameters (NodeType::loop_iterations).
+// LP_MAX_TGSI_LOOP_ITERATIONS is shared by all loops of a shader and ends them silently: work is
+// split or refused so that no invocation comes near it.
+std::size_t loop_iterations_per_evaluation(const terrain::Program& p) {
+  const std::span<const float> pool(p.pool);
+  std::size_t n = 0;
+  for (const terrain::Instruction& ins : p.code) {
+    n += 1;
+    const bool runs_kernel = ins.op == Op::leaf || ins.op == Op::combine ||
+                             ins.op == Op::warp_begin || ins.op == Op::blend_end;
+    const terrain::NodeType* type = runs_kernel ? terrain::node_type_by_id(ins.type) : nullptr;
+    if (type != nullptr && type->loop_iterations != nullptr && ins.params <= pool.size()) {
+      n += type->loop_iterations(pool.subspan(ins.params));
+    }
+  }
+  return n;
+}
 
 std::vector<float> prepare_pool(const terrain::Program& program) {
   std::vector<float> pool = program.pool;

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "simd.hpp"
+#include "terrain/node.hpp"
 
 namespace terrain {
 namespace {
@@ -343,6 +344,11 @@ PolylineSample Polyline::nearest_brute_force(Vec2 p) const {
 
 void Polyline::pack(std::vector<float>& pool) const {
   pool.insert(pool.end(), packed_.begin(), packed_.end());
+}
+
+std::size_t polyline_loop_iterations(std::span<const float> packed) {
+  constexpr std::size_t kFixedSteps = 8;
+  return pool_count(packed, 0) + pool_count(packed, 1) + kFixedSteps;
 }
 
 PolylineSample polyline_eval(const float* packed, Vec2 p, float cutoff) {

@@ -27,6 +27,10 @@ std::span<const NodeType* const> node_types() {
   return kTypes;
 }
 
+std::size_t no_loops(std::span<const float>) {
+  return 0;
+}
+
 const NodeType* node_type_by_id(std::uint16_t id) {
   static const std::array<const NodeType*, 256> kById = [] {
     std::array<const NodeType*, 256> table{};

@@ -124,6 +124,11 @@ TEST(ImagePrimitive, NeedsExactlyOneMapping) {
   EXPECT_NE(missing.error().message.find("gone.png"), std::string::npos);
 }
 
+// The GPU evaluator's loop budget (llvmpipe) adds up each node's loop cost: none may be missing.
+TEST(NodeRegistry, EveryNodeTypeHasALoopCost) {
+  for (const NodeType* t : node_types()) EXPECT_NE(t->loop_iterations, nullptr) << t->name;
+}
+
 TEST(NodeRegistry, IdsAndNamesAreUnique) {
   std::set<std::uint16_t> ids;
   std::set<std::string_view> names;

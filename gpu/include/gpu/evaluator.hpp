@@ -94,6 +94,11 @@ class GpuEvaluator {
   std::unique_ptr<State> state_;
 };
 
+/// An upper estimate of the loop iterations one evaluation of `program` runs in the shaders: one
+/// per instruction plus each node's own (NodeType::loop_iterations). llvmpipe silently ends the
+/// loops of an invocation past 65 535 iterations in all, so work is split or refused by it.
+std::size_t loop_iterations_per_evaluation(const terrain::Program& program);
+
 /// The parameter pool as the shaders read it: the program's pool with each fractal's spare slot
 /// 14 set to its octave gain r^−H, rounded from double as the CPU does (GLSL has no double pow,
 /// and the warped fractal amplifies an ulp without bound). Every GLSL loader (the browser too)

@@ -3,6 +3,7 @@
 // tests and benchmarks: a node type is added in one place.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -75,6 +76,17 @@ struct NodeParams {
 class FieldReader;
 using NodeParser = Result<NodeParams> (*)(FieldReader& reader, ParseContext& context);
 
+/// Upper bounds of the loops inside the GPU shaders' kernels, which per-node loop costs count: the
+/// fractal octave loop (at most 24 octaves, plus one) and a profile's binary search.
+inline constexpr std::size_t kShaderOctaveLoops = 25;
+inline constexpr std::size_t kShaderSearchLoops = 16;
+
+/// The loop iterations one evaluation of a node runs inside its kernels (not counting the one per
+/// instruction), an upper estimate, from its compiled parameters: `params` holds the program's
+/// pool from the node's first float on. Evaluators whose loops are capped (llvmpipe ends every
+/// loop of an invocation after 65 535 iterations in all) split or refuse work by it.
+using LoopCost = std::size_t (*)(std::span<const float> params);
+
 /// Static description of a node type.
 struct NodeType {
   std::uint16_t id = 0;   ///< stable opcode shared by every evaluator (never reused)
@@ -90,7 +102,19 @@ struct NodeType {
   NodeKernels kernels;
   /// A small complete example of this node (children included) for docs, tests and benchmarks.
   std::string_view example_json;
+  /// Its loop iterations per evaluation; every node type has one (no_loops where there are none).
+  LoopCost loop_iterations = nullptr;
 };
+
+/// The loop cost of a node type whose kernels have no loops of their own.
+std::size_t no_loops(std::span<const float> params);
+
+/// The count stored at params[i] by a node's parser (0 where absent or not a positive number).
+inline std::size_t pool_count(std::span<const float> params, std::size_t i) {
+  return i < params.size() && params[i] > 0.0f && params[i] < 1e9f
+             ? static_cast<std::size_t>(params[i])
+             : std::size_t{0};
+}
 
 /// Every node type, in opcode order.
 std::span<const NodeType* const> node_types();

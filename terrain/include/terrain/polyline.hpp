@@ -108,6 +108,10 @@ class Polyline {
 
 /// Nearest-point query on a packed polyline (the block written by Polyline::pack). Chunks whose
 /// box is farther than the best distance so far or than `cutoff` are skipped.
+/// The loop iterations a shader's walk over a packed polyline runs at most: its chunks, its
+/// segments and a few more (0 counts where `packed` is too short to hold them).
+std::size_t polyline_loop_iterations(std::span<const float> packed);
+
 PolylineSample polyline_eval(const float* packed, Vec2 p,
                              float cutoff = std::numeric_limits<float>::infinity());
 /// The chunks (in increasing order) that can hold the nearest segment of any point of `box`:

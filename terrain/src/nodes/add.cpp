@@ -80,6 +80,7 @@ const NodeType& add_node_type() {
  {"type": "disc", "center": [0, 0], "radius": 3000, "elevation": 100},
  {"type": "disc", "center": [0, 0], "radius": 1500, "elevation": 0,
   "noise": {"kind": "ridged", "amplitude": 15, "wavelength": 120, "octaves": 4, "seed": 5}}]})",
+      .loop_iterations = no_loops,
   };
   return type;
 }

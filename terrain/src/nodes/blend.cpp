@@ -103,6 +103,7 @@ const NodeType& blend_node_type() {
   "noise": {"kind": "fbm", "amplitude": 80, "wavelength": 600, "seed": 1}},
  {"type": "disc", "center": [800, 0], "radius": 1500, "elevation": 350,
   "noise": {"kind": "fbm", "amplitude": 120, "wavelength": 900, "seed": 2}}]})",
+      .loop_iterations = no_loops,
   };
   return type;
 }

@@ -139,6 +139,13 @@ NodeBounds contour_bounds(const float* params, const BoundsQuery& query) {
 
 }  // namespace
 
+namespace {
+// Two profile searches: the sector's two neighbouring profiles.
+std::size_t contour_loop_iterations(std::span<const float>) {
+  return 2 * kShaderSearchLoops;
+}
+}  // namespace
+
 const NodeType& contour_node_type() {
   static const NodeType type{
       .id = 3,
@@ -155,6 +162,7 @@ const NodeType& contour_node_type() {
  "radii": [900, 1100, 1000, 1250, 950, 800, 1000, 1150],
  "profiles": [{"preset": "lake", "depth": 25, "shore_width": 0.25},
               {"preset": "crater", "depth": 25, "rim_height": 30, "rim_width": 0.4}]})",
+      .loop_iterations = contour_loop_iterations,
   };
   return type;
 }

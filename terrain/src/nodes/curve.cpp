@@ -214,6 +214,16 @@ NodeBounds curve_bounds(const float* params, const BoundsQuery& query) {
 
 }  // namespace
 
+namespace {
+// The polyline's chunks and segments, a search per profile and one over the profile table.
+std::size_t curve_loop_iterations(std::span<const float> params) {
+  const std::size_t polyline = pool_count(params, kPolyline);
+  const std::span<const float> packed =
+      polyline < params.size() ? params.subspan(polyline) : std::span<const float>{};
+  return polyline_loop_iterations(packed) + 3 * kShaderSearchLoops + pool_count(params, kProfiles);
+}
+}  // namespace
+
 const NodeType& curve_node_type() {
   static const NodeType type{
       .id = 2,
@@ -231,6 +241,7 @@ const NodeType& curve_node_type() {
             [[0, -100, 95], [600, -500, 90], [900, 400, 88], [1500, 100, 80]]],
  "profiles": [{"at": 0, "preset": "stream", "width": 8, "depth": 2},
               {"at": 1, "preset": "meander", "width": 40, "depth": 5, "bank_width": 30, "asymmetry": 0.6}]})",
+      .loop_iterations = curve_loop_iterations,
   };
   return type;
 }

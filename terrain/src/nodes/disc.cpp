@@ -191,6 +191,13 @@ NodeBounds disc_bounds(const float* params, const BoundsQuery& query) {
 
 }  // namespace
 
+namespace {
+// The noise's octave loop.
+std::size_t disc_loop_iterations(std::span<const float>) {
+  return kShaderOctaveLoops;
+}
+}  // namespace
+
 const NodeType& disc_node_type() {
   static const NodeType type{
       .id = 1,
@@ -207,6 +214,7 @@ const NodeType& disc_node_type() {
                   .leaf_where_weighted = disc_leaf_where_weighted},
       .example_json = R"({"type": "disc", "center": [0, 0], "radius": 2000, "elevation": 300,
  "noise": {"kind": "ridged", "amplitude": 400, "wavelength": 1500, "octaves": 8, "seed": 7}})",
+      .loop_iterations = disc_loop_iterations,
   };
   return type;
 }

@@ -163,6 +163,19 @@ NodeBounds image_bounds(const float* params, const BoundsQuery& query) {
 
 }  // namespace
 
+namespace {
+// The mapping's few fixed steps, and for a curve mapping its polyline's chunks and segments (a
+// quadrangle's corners are coordinates, not counts).
+std::size_t image_loop_iterations(std::span<const float> params) {
+  constexpr std::size_t kMappingSteps = 4;
+  if (pool_count(params, kMode) == 0) return kMappingSteps;
+  const std::size_t mapping = pool_count(params, kMapping);
+  const std::span<const float> packed =
+      mapping < params.size() ? params.subspan(mapping) : std::span<const float>{};
+  return kMappingSteps + polyline_loop_iterations(packed);
+}
+}  // namespace
+
 const NodeType& image_node_type() {
   static const NodeType type{
       .id = 4,
@@ -178,6 +191,7 @@ const NodeType& image_node_type() {
       .example_json = R"({"type": "image", "image": "mountain.png",
  "corners": [[-900, 800], [1000, 1000], [800, -900], [-1000, -800]],
  "elevation": 50, "height_scale": 600, "margin": 0.1})",
+      .loop_iterations = image_loop_iterations,
   };
   return type;
 }

@@ -89,6 +89,7 @@ const NodeType& replace_node_type() {
  {"type": "disc", "center": [0, 0], "radius": 3000, "elevation": 200,
   "noise": {"kind": "fbm", "amplitude": 100, "wavelength": 1200, "seed": 3}},
  {"type": "disc", "center": [300, 200], "radius": 800, "elevation": 120}]})",
+      .loop_iterations = no_loops,
   };
   return type;
 }

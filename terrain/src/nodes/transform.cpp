@@ -188,6 +188,7 @@ const NodeType& transform_node_type() {
  "scale": 1.5, "elevation_scale": 1.2, "elevation_offset": 0, "children": [
  {"type": "disc", "center": [0, 0], "radius": 1000, "elevation": 300,
   "noise": {"kind": "ridged", "amplitude": 250, "wavelength": 700, "seed": 11}}]})",
+      .loop_iterations = no_loops,
   };
   return type;
 }

@@ -101,6 +101,13 @@ NodeBounds warp_bounds(const float* params, const NodeBounds& child) {
 
 }  // namespace
 
+namespace {
+// Two fractals (the displacement's x and y), each an octave loop.
+std::size_t warp_loop_iterations(std::span<const float>) {
+  return 2 * kShaderOctaveLoops;
+}
+}  // namespace
+
 const NodeType& warp_node_type() {
   static const NodeType type{
       .id = 33,
@@ -117,6 +124,7 @@ const NodeType& warp_node_type() {
       .example_json = R"({"type": "warp", "noise": {"kind": "fbm", "amplitude": 40,
  "wavelength": 1500, "octaves": 3, "seed": 4}, "children": [
  {"type": "disc", "center": [0, 0], "radius": 1200, "elevation": 250}]})",
+      .loop_iterations = warp_loop_iterations,
   };
   return type;
 }
