@@ -55,7 +55,7 @@ terrain::ProductConstants PlanetTiles::constants_at(int z) const {
   const terrain::Interval range = planet().elevation_range();
   c.gray16 = terrain::gray16_encoding_for(range);
   const double span = static_cast<double>(range.hi) - range.lo;
-  c.edge_quantum = terrain::edge_quantum_for(span);
+  c.edge_quantum = terrain::edge_quantum_for(range.lo, range.hi);
   c.position_quantum = terrain::position_quantum_for(
       std::numbers::pi * planet().definition().radius / std::ldexp(1.0, z), span);
   c.max_useful_zoom[static_cast<int>(TileScheme::geographic)] = max_zoom();

@@ -307,6 +307,19 @@ double edge_quantum_for(double elevation_range) {
   return q;
 }
 
+double edge_quantum_for(double lowest, double highest) {
+  double q = edge_quantum_for(highest - lowest);
+  if (!std::isfinite(q) || !std::isfinite(lowest) || !std::isfinite(highest)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  // A header's m lies up to one Q beyond the farthest height and M = m + 32767·q: both are
+  // multiples of q, exact in float while |value|/q < 2^24.
+  constexpr double kFloatExactSteps = 16777216.0;
+  const double farthest = std::max(std::abs(lowest), std::abs(highest));
+  while (farthest / q + 2.0 * (kMaxQuantized + 1) >= kFloatExactSteps) q *= 2.0;
+  return q;
+}
+
 std::array<std::uint8_t, 2> oct_encode(const std::array<double, 3>& unit) {
   const double l1 = std::abs(unit[0]) + std::abs(unit[1]) + std::abs(unit[2]);
   double x = unit[0] / l1, y = unit[1] / l1;

@@ -69,7 +69,7 @@ ProductMaker::ProductMaker(TileSource source) : generator_(std::move(source)) {
   const TileSource& s = generator_.source();
   constants_.gray16 = gray16_encoding_for(s.elevation_range);
   const double range = static_cast<double>(s.elevation_range.hi) - s.elevation_range.lo;
-  constants_.edge_quantum = edge_quantum_for(range);
+  constants_.edge_quantum = edge_quantum_for(s.elevation_range.lo, s.elevation_range.hi);
   // Positions span the scene's square; skirts reach below it by at most a few tens of metres
   // on useful zooms, which the factor two in position_quantum_for's rule leaves room for.
   constants_.position_quantum =

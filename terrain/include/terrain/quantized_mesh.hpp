@@ -38,6 +38,11 @@ namespace terrain {
 /// and maximum of heights within ±16 000 m is exact in float. Non-positive or NaN ranges give
 /// the minimum, 2^-10.
 double edge_quantum_for(double elevation_range);
+/// The edge quantum for a scene whose heights lie within [lowest, highest]: that of its range,
+/// doubled while a tile header (a float, m and M on multiples of Q next to heights that far from
+/// zero) could not be exact: so every tile of every valid scene fits, 40 km up as much as at sea
+/// level. Non-finite bounds give infinity, as above.
+double edge_quantum_for(double lowest, double highest);
 
 /// What to write besides the mandatory parts.
 struct QuantizedMeshOptions {
