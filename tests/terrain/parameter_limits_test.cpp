@@ -185,7 +185,8 @@ TEST(BlendThreshold, SmallestAcceptedKeepsEverythingFinite) {
       continue;
     }
     EXPECT_TRUE(finite_bounds(scene->bounds)) << "threshold " << threshold;
-    Evaluator evaluator(testing::compile_or_die(*scene));
+    const Program program = testing::compile_or_die(*scene);  // the evaluator refers to it
+    Evaluator evaluator(program);
     for (float x = -1500.0f; x <= 1500.0f; x += 37.0f) {
       const FieldSample s = evaluator.sample({x, 0.0f});
       ASSERT_TRUE(std::isfinite(s.elevation) && std::isfinite(s.elevation_gradient.x))
