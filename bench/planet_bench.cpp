@@ -56,17 +56,16 @@ void BM_PlanetRefinement(benchmark::State& state) {
 }
 BENCHMARK(BM_PlanetRefinement)->Arg(10)->Arg(20)->Unit(benchmark::kMillisecond);
 
-// One 256² terrain-RGB tile (height evaluation and encoding), a fresh PlanetTiles each time so
-// that no refinement is reused: the latency of a cache miss.
-void BM_PlanetTile(benchmark::State& state) {
+// One tile of `format` over land at about 20° N, 20° E (this planet's central continent), a
+// fresh PlanetTiles each time so that no refinement is reused: the latency of a cache miss.
+void run_planet_tile(benchmark::State& state, terrain::TileFormat format) {
   const auto& world = default_planet();
   const int z = static_cast<int>(state.range(0));
-  // Over land at about 20° N, 20° E (this planet's central continent).
   const terrain::TileAddress a{z, static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z)),
                                static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z))};
   for (auto _ : state) {
     PlanetTiles tiles(world);
-    Result<terrain::Product> p = tiles.make(a, terrain::TileFormat::terrain_rgb);
+    Result<terrain::Product> p = tiles.make(a, format);
     if (!p) {
       state.SkipWithError(p.error().message.c_str());
       return;
@@ -74,25 +73,18 @@ void BM_PlanetTile(benchmark::State& state) {
     benchmark::DoNotOptimize(p->bytes.data());
   }
 }
+
+// One 256² terrain-RGB tile (height evaluation and encoding).
+void BM_PlanetTile(benchmark::State& state) {
+  run_planet_tile(state, terrain::TileFormat::terrain_rgb);
+}
 BENCHMARK(BM_PlanetTile)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond);
 
 // One 65² quantized-mesh tile with every extension (heights, water mask, triangulation on the
-// ellipsoid, encoding, gzip), as BM_PlanetTile: coarse zooms are where the curvature of the globe
-// adds vertices, deep ones where it should cost nothing.
+// ellipsoid, encoding, gzip): coarse zooms are where the curvature of the globe adds vertices,
+// deep ones where it should cost nothing.
 void BM_PlanetQuantizedMesh(benchmark::State& state) {
-  const auto& world = default_planet();
-  const int z = static_cast<int>(state.range(0));
-  const terrain::TileAddress a{z, static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z)),
-                               static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z))};
-  for (auto _ : state) {
-    PlanetTiles tiles(world);
-    Result<terrain::Product> p = tiles.make(a, terrain::TileFormat::quantized_mesh);
-    if (!p) {
-      state.SkipWithError(p.error().message.c_str());
-      return;
-    }
-    benchmark::DoNotOptimize(p->bytes.data());
-  }
+  run_planet_tile(state, terrain::TileFormat::quantized_mesh);
 }
 BENCHMARK(BM_PlanetQuantizedMesh)->Arg(1)->Arg(4)->Arg(10)->Unit(benchmark::kMillisecond);
 

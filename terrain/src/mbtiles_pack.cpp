@@ -70,10 +70,9 @@ Status write_metadata(Database& db, const PackPlan& plan, bool complete) {
   return db.exec("COMMIT");
 }
 
-class MbtilesSink final : public pack::TileSink {
+class MbtilesSink final : public pack::SqliteTileSink {
  public:
-  MbtilesSink(Database& db, TileScheme scheme, Statement insert)
-      : db_(db), scheme_(scheme), insert_(std::move(insert)) {}
+  using SqliteTileSink::SqliteTileSink;
 
   Result<std::vector<TileAddress>> stored() override {
     Result<Statement> select = db_.prepare("SELECT zoom_level, tile_column, tile_row FROM tiles");
@@ -87,7 +86,6 @@ class MbtilesSink final : public pack::TileSink {
     }
     return out;
   }
-  Status begin() override { return db_.exec("BEGIN"); }
   Status put(const TileAddress& a, std::span<const std::uint8_t> bytes) override {
     insert_.reset();
     insert_.bind(1, std::int64_t{a.z});
@@ -97,13 +95,6 @@ class MbtilesSink final : public pack::TileSink {
     if (insert_.step() != SQLITE_DONE) return Error{db_.message(), "/output"};
     return Ok{};
   }
-  Status commit() override { return db_.exec("COMMIT"); }
-  void abandon() override { static_cast<void>(db_.exec("ROLLBACK")); }
-
- private:
-  Database& db_;
-  TileScheme scheme_;
-  Statement insert_;
 };
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "terrain/tile_pack.hpp"
@@ -75,6 +76,22 @@ class TileSink {
   virtual Status commit() = 0;
   /// Drops the open transaction, as a kill would (PackOptions::stop_after).
   virtual void abandon() = 0;
+};
+
+/// A sink whose tiles go to one SQLite table through a prepared insert, one transaction per
+/// batch: the packs differ only in how they number and read back tiles.
+class SqliteTileSink : public TileSink {
+ public:
+  SqliteTileSink(Database& db, TileScheme scheme, Statement insert)
+      : db_(db), scheme_(scheme), insert_(std::move(insert)) {}
+  Status begin() final { return db_.exec("BEGIN"); }
+  Status commit() final { return db_.exec("COMMIT"); }
+  void abandon() final { static_cast<void>(db_.exec("ROLLBACK")); }
+
+ protected:
+  Database& db_;
+  TileScheme scheme_;
+  Statement insert_;
 };
 
 /// Makes every tile of the plan that the sink does not hold and puts it there. Fills tiles,

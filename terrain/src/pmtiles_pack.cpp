@@ -146,10 +146,9 @@ TileAddress scheme_address(TileScheme scheme, const TileAddress& stored) {
 }
 
 // The scratch database: tiles by PMTiles id, and the export's identity.
-class ScratchSink final : public pack::TileSink {
+class ScratchSink final : public pack::SqliteTileSink {
  public:
-  ScratchSink(Database& db, TileScheme scheme, Statement insert)
-      : db_(db), scheme_(scheme), insert_(std::move(insert)) {}
+  using SqliteTileSink::SqliteTileSink;
   Result<std::vector<TileAddress>> stored() override {
     Result<Statement> select = db_.prepare("SELECT tile_id FROM tiles");
     if (!select) return select.error();
@@ -160,7 +159,6 @@ class ScratchSink final : public pack::TileSink {
     }
     return out;
   }
-  Status begin() override { return db_.exec("BEGIN"); }
   Status put(const TileAddress& a, std::span<const std::uint8_t> bytes) override {
     const TileAddress p = pmtiles_address(scheme_, a);
     insert_.reset();
@@ -170,13 +168,6 @@ class ScratchSink final : public pack::TileSink {
     if (insert_.step() != SQLITE_DONE) return Error{db_.message(), "/output"};
     return Ok{};
   }
-  Status commit() override { return db_.exec("COMMIT"); }
-  void abandon() override { static_cast<void>(db_.exec("ROLLBACK")); }
-
- private:
-  Database& db_;
-  TileScheme scheme_;
-  Statement insert_;
 };
 
 nlohmann::json pack_metadata(const PackPlan& plan) {
