@@ -103,11 +103,15 @@ void time_picture(benchmark::State& state, gpu::GpuEvaluator& gpu, const Fixture
     state.SkipWithError("rendering failed");
     return;
   }
+  std::int64_t steps = 0;
   for (auto _ : state) {
     auto picture = gpu.render(f.program, f.area, camera);
+    if (picture) steps = picture->total_steps;
     benchmark::DoNotOptimize(picture);
   }
   state.SetItemsProcessed(state.iterations() * width * height);
+  // Sphere-tracing steps per pixel: what tighter Lipschitz bounds save (bench/bounds_bench.cpp).
+  state.counters["steps_per_pixel"] = static_cast<double>(steps) / (width * height);
 }
 
 void BM_GpuWindingRoad(benchmark::State& state) {

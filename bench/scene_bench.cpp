@@ -15,6 +15,8 @@
 #include "terrain/scene.hpp"
 #include "terrain/tile_source.hpp"
 
+#include "example_scenes.hpp"
+
 namespace {
 
 using namespace terrain;
@@ -22,22 +24,8 @@ namespace fs = std::filesystem;
 
 const fs::path kScenes = fs::path(TERRAIN_SOURCE_DIR) / "config" / "scenes";
 
-struct Loaded {
-  Scene scene;
-  Program program;
-};
-
-const Loaded& load(const std::string& name) {
-  static std::map<std::string, Loaded> cache;
-  auto it = cache.find(name);
-  if (it != cache.end()) return it->second;
-  Scene scene = load_scene_file((kScenes / (name + ".json")).string()).value();
-  Program program = compile(scene).value();
-  return cache.emplace(name, Loaded{std::move(scene), std::move(program)}).first->second;
-}
-
 void points(benchmark::State& state, const std::string& name, float spacing) {
-  const Loaded& l = load(name);
+  const bench::LoadedExample& l = bench::load_example(name);
   Evaluator e(l.program);
   const Box2 area = l.scene.area();
   std::mt19937 rng(1);
@@ -52,7 +40,7 @@ void points(benchmark::State& state, const std::string& name, float spacing) {
 }
 
 void grid(benchmark::State& state, const std::string& name, int size) {
-  const Loaded& l = load(name);
+  const bench::LoadedExample& l = bench::load_example(name);
   const Box2 area = l.scene.area();
   const double step = static_cast<double>(std::max(area.size().x, area.size().y)) / (size - 1);
   const GridSpec spec{area.lo.x, area.lo.y, step, size, size, -1.0f};
@@ -65,7 +53,7 @@ void grid(benchmark::State& state, const std::string& name, int size) {
 }
 
 void tile(benchmark::State& state, const std::string& name, bool encode) {
-  const Loaded& l = load(name);
+  const bench::LoadedExample& l = bench::load_example(name);
   TileGenerator generator(TileSource::from_scene(l.scene).value());
   const TileRequest request{TileScheme::local, {0, 0, 0}, SampleLayout::cell_centres, 256, 0};
   for (auto _ : state) {
