@@ -1379,21 +1379,33 @@ float round_down(double x) {
              : f;
 }
 
-// Signal range of the ridged kind: (offset − |η|)² for |η| ∈ [0, 1].
-Range ridged_signal(double offset) {
-  const double a = offset * offset;
-  const double b = (offset - 1.0) * (offset - 1.0);
-  const double lo = (offset >= 0.0 && offset <= 1.0) ? 0.0 : std::min(a, b);
-  return {lo, std::max(a, b)};
-}
-
 struct FractalBounds {
   Range value;
   double lipschitz = 0.0;
 };
 
-FractalBounds bounds_of(const FractalParams& p, float octaves, double radius, double lambda) {
-  const Plan plan = make_plan(p, octaves);
+// What is known of one octave's basis term η_i(f_i p) over the region bounded: its range, and a
+// bound of |∇η_i| at unit frequency (the gradient in p is f_i times that).
+struct OctaveReach {
+  Range value{-1.0, 1.0};
+  double slope = 0.0;
+};
+
+// |x| over x in a.
+Range absolute(Range a) {
+  if (a.lo <= 0.0 && a.hi >= 0.0) return {0.0, magnitude(a)};
+  return {std::min(std::abs(a.lo), std::abs(a.hi)), magnitude(a)};
+}
+// x² over x in a.
+Range squared(Range a) {
+  const Range m = absolute(a);
+  return {m.lo * m.lo, m.hi * m.hi};
+}
+
+// `reach(octave)` says what is known of each octave over the region: the whole basis range and
+// its Lipschitz constant for global bounds, or far less over a small region (fractal_bounds_near).
+template <class Reach>
+FractalBounds bounds_of(const Plan& plan, double radius, Reach reach) {
   FractalBounds out;
   const Fractal kind = plan.kind;
   const double offset = plan.ridge_offset;
@@ -1411,29 +1423,37 @@ FractalBounds bounds_of(const FractalParams& p, float octaves, double radius, do
     const Octave& o = plan.octave[static_cast<std::size_t>(i)];
     const double a = o.amplitude;  // includes the octave weight
     const double f = o.frequency;
-    const double eta_slope = std::abs(f) * lambda;  // |∇η(f p)|
+    const OctaveReach eta = reach(o);
+    const double eta_slope = std::abs(f) * eta.slope;  // |∇η(f p)|
     switch (kind) {
       case Fractal::fbm: {
-        out.value.lo -= std::abs(a);
-        out.value.hi += std::abs(a);
+        const Range term = scaled(eta.value, a);
+        out.value.lo += term.lo;
+        out.value.hi += term.hi;
         out.lipschitz += std::abs(a) * eta_slope;
         break;
       }
       case Fractal::ridged: {
-        const Range s = ridged_signal(offset);
-        const double m = std::max(std::abs(offset), std::abs(offset - 1.0));
-        const double s_slope = 2.0 * m * eta_slope;
+        // s = m², m = o − |η|; where the weight's clamp is inactive γs < 1, so |m| < 1/√γ.
+        const Range abs_eta = absolute(eta.value);
+        const Range m{offset - abs_eta.hi, offset - abs_eta.lo};
+        const Range s = squared(m);
+        const double s_slope = 2.0 * magnitude(m) * eta_slope;
         const Range term = scaled(product(s, weight), a);
         out.value.lo += term.lo;
         out.value.hi += term.hi;
         out.lipschitz += std::abs(a) * (magnitude(weight) * s_slope + s.hi * weight_slope);
         weight = clamped01(scaled(s, ridge_gain));
-        weight_slope = std::abs(ridge_gain) * s_slope;
+        const bool clamp_active = ridge_gain > 0.0 && ridge_gain * s.lo < 1.0;
+        weight_slope =
+            clamp_active
+                ? ridge_gain * 2.0 * std::min(magnitude(m), 1.0 / std::sqrt(ridge_gain)) * eta_slope
+                : 0.0;
         break;
       }
       case Fractal::hybrid: {
         const double g = o.gain;
-        const Range s{g * (offset - 1.0), g * (offset + 1.0)};
+        const Range s = scaled({eta.value.lo + offset, eta.value.hi + offset}, g);
         const double s_slope = g * eta_slope;
         const Range ws = product(weight, s);
         const Range term = scaled(ws, a);
@@ -1451,7 +1471,7 @@ FractalBounds bounds_of(const FractalParams& p, float octaves, double radius, do
         // ‖∂q/∂p‖ ≤ f‖Rot‖ + (f‖Rot'‖|p|·|c1/(rH)| + |c3|)·|∇T_i|.
         const double jacobian = std::abs(f) * kRotationNorm +
                                 (std::abs(f) * kRotationNorm * radius * twist + shift) * sum_slope;
-        height_slope += std::abs(a) * lambda * jacobian;
+        height_slope += std::abs(a) * eta.slope * jacobian;
         sum_slope += height_slope;
         out.lipschitz = height_slope;
         break;
@@ -1460,6 +1480,18 @@ FractalBounds bounds_of(const FractalParams& p, float octaves, double radius, do
   }
   return out;
 }
+
+FractalBounds bounds_of(const FractalParams& p, float octaves, double radius, double lambda) {
+  return bounds_of(make_plan(p, octaves), radius, [lambda](const Octave&) {
+    return OctaveReach{{-1.0, 1.0}, lambda};
+  });
+}
+
+// Proven bounds of the Hessian's norm at unit frequency, |∇η(a) − ∇η(b)| ≤ M₂|a − b|
+// (docs/noise.md, "Hessian bounds"): gradient 2D 18.182 (the bound function's maximum) and
+// simplex 2D 123.81 (three vertices at their worst), plus margin.
+constexpr double kHessianGradient2 = 20.0;
+constexpr double kHessianSimplex2 = 125.0;
 
 }  // namespace
 
@@ -1551,6 +1583,90 @@ Interval fractal_range(const FractalParams& p, float octaves) {
 float fractal_lipschitz(const FractalParams& p, float octaves, float radius) {
   const double r = std::max(0.0, static_cast<double>(radius));
   return round_up(bounds_of(p, octaves, r, lipschitz(p.basis, 2)).lipschitz);
+}
+
+RegionBounds fractal_bounds_near(const FractalParams& p, float octaves, Vec2 centre, float radius) {
+  const double lambda = lipschitz(p.basis, 2);
+  if (p.kind == Fractal::warped || !(radius >= 0.0f) || !std::isfinite(centre.x) ||
+      !std::isfinite(centre.y)) {
+    return {fractal_range(p, octaves), fractal_lipschitz(p, octaves, radius)};
+  }
+  // A copy: the cache may drop its entry at the next lookup; copying costs far less than the
+  // plan's pow and hashes.
+  const Plan plan = cached_plan(p, octaves);
+  const FractalBounds global = bounds_of(plan, 0.0, [lambda](const Octave&) {
+    return OctaveReach{{-1.0, 1.0}, lambda};
+  });
+  const double hessian = hessian_bound(p.basis, 2);
+  // The float evaluation's own error is far below this slack (docs/noise.md).
+  constexpr double kSlack = 1e-5;
+  std::array<OctaveReach, kMaxOctaves> reach{};
+  // fBm only: the octaves bounded by Taylor add as vectors at the centre (value, gradient and
+  // curvature terms), the rest as their ranges and maximum slopes.
+  double taylor_x = 0.0, taylor_y = 0.0, remainder = 0.0;
+  double taylor_value = 0.0, curvature = 0.0;
+  Range rest{0.0, 0.0};
+  for (int i = 0; i < plan.count; ++i) {
+    const Octave& o = plan.octave[static_cast<std::size_t>(i)];
+    OctaveReach& r = reach[static_cast<std::size_t>(i)];
+    r = {{-1.0, 1.0}, lambda};
+    // The centre in octave o's lattice, computed as the fractal steps compute it, and the
+    // region's radius in lattice cells, widened by the float rounding of lattice positions.
+    const float x = centre.x * o.frequency;
+    const float y = centre.y * o.frequency;
+    const double rho = std::abs(static_cast<double>(o.frequency)) * radius +
+                       4e-7 * (std::abs(x) + std::abs(y) + 1.0);
+    const double slope_scale = std::abs(static_cast<double>(o.amplitude) * o.frequency);
+    // Near the coordinate clamp the basis has a kink: no Taylor bound there.
+    const bool smooth =
+        std::abs(x) + rho < 0.5 * kCoordLimit && std::abs(y) + rho < 0.5 * kCoordLimit;
+    if (smooth) {
+      const Lanes2<float> n = p.basis == Basis::simplex
+                                  ? basis2<Basis::simplex, ScalarLanes>(o, x, y)
+                                  : basis2<Basis::gradient, ScalarLanes>(o, x, y);
+      const double g = std::hypot(static_cast<double>(n.dx), static_cast<double>(n.dy)) + kSlack;
+      // Taylor: |∇η| ≤ |∇η(c)| + M₂ρ and |η − η(c)| ≤ |∇η(c)|ρ + M₂ρ²/2, never above the global.
+      const double spread = std::min(lambda * rho, g * rho + 0.5 * hessian * rho * rho) + kSlack;
+      const double value = n.value;
+      r = {{std::max(-1.0, value - spread), std::min(1.0, value + spread)},
+           std::min(lambda, g + hessian * rho)};
+      if (g + hessian * rho < lambda) {
+        taylor_x += slope_scale * n.dx;
+        taylor_y += slope_scale * n.dy;
+        remainder += slope_scale * (hessian * rho + kSlack);
+        taylor_value += static_cast<double>(o.amplitude) * value;
+        curvature +=
+            std::abs(static_cast<double>(o.amplitude)) * (0.5 * hessian * rho * rho + kSlack);
+        continue;
+      }
+    }
+    remainder += slope_scale * lambda;
+    const Range term = scaled(r.value, o.amplitude);
+    rest = {rest.lo + term.lo, rest.hi + term.hi};
+  }
+  const FractalBounds local = bounds_of(plan, 0.0, [&](const Octave& o) {
+    return reach[static_cast<std::size_t>(&o - plan.octave.data())];
+  });
+  double slope = local.lipschitz;
+  Range value = local.value;
+  if (p.kind == Fractal::fbm) {
+    slope = std::min(slope, std::hypot(taylor_x, taylor_y) + remainder);
+    // F_T(p) − F_T(c) ≤ |∇F_T(c)| r + Σ a_i M₂ ρ_i²/2 for the Taylor octaves T.
+    const double spread = std::hypot(taylor_x, taylor_y) * radius + curvature;
+    value.lo = std::max(value.lo, taylor_value - spread + rest.lo);
+    value.hi = std::min(value.hi, taylor_value + spread + rest.hi);
+  }
+  // Never looser than the global bounds (the Taylor terms can only cut).
+  return {{std::max(round_down(value.lo), round_down(global.value.lo)),
+           std::min(round_up(value.hi), round_up(global.value.hi))},
+          std::min(round_up(slope), round_up(global.lipschitz))};
+}
+
+float hessian_bound(Basis basis, int dimensions) {
+  if (dimensions == 2) {
+    return static_cast<float>(basis == Basis::simplex ? kHessianSimplex2 : kHessianGradient2);
+  }
+  return std::numeric_limits<float>::infinity();
 }
 
 float fractal3_lipschitz(const FractalParams& p, float octaves) {

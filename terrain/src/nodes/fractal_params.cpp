@@ -47,9 +47,14 @@ noise::FractalParams read_fractal(FieldReader& reader, ParseContext& context,
       reader.fail("must be an array of four numbers [c1, c2, c3x, c3y] within ±10", "warp");
   }
   reader.canonical()["warp"] = nlohmann::json::array({warp[0], warp[1], warp[2], warp[3]});
-  p.warp_c1 = static_cast<float>(warp[0]);
+  // Schneider's roughness is dimensionless: c₁ and c₃ act on the height sum in units of the
+  // amplitude, so a scene warps alike at any amplitude and the warp's slope stays bounded by the
+  // noise's own (in metres, a 100 m amplitude turned 0.35 into 35 rad per unit of roughness).
+  // FractalParams carries them per metre, which every evaluator reads from the pool.
+  const double per_metre = amplitude > 0.0 ? 1.0 / amplitude : 0.0;
+  p.warp_c1 = static_cast<float>(warp[0] * per_metre);
   p.warp_c2 = static_cast<float>(warp[1]);
-  p.warp_c3 = {static_cast<float>(warp[2]), static_cast<float>(warp[3])};
+  p.warp_c3 = {static_cast<float>(warp[2] * per_metre), static_cast<float>(warp[3] * per_metre)};
   return p;
 }
 
