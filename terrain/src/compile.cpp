@@ -234,7 +234,18 @@ std::string base64(const void* data, std::size_t size) {
 
 Result<Program> compile(const Scene& scene, const CompileOptions& options) {
   Compiler compiler(options);
-  return compiler.run(scene, *scene.root, scene.bounds, "/root");
+  Result<Program> program = compiler.run(scene, *scene.root, scene.bounds, "/root");
+  if (program && options.bound_queries > 0) {
+    // The bound over the whole plane adds up every feature's worst case; the maximum of local
+    // bounds over a partition of the plane does not.
+    const auto size = static_cast<std::int64_t>(std::max<std::size_t>(1, program->code.size()));
+    const auto queries = static_cast<int>(
+        std::min<std::int64_t>(options.bound_queries, options.bound_instruction_budget / size));
+    Evaluator evaluator(*program);
+    program->bounds.elevation_lipschitz =
+        std::min(program->bounds.elevation_lipschitz, partitioned_lipschitz(evaluator, queries));
+  }
+  return program;
 }
 
 Result<Program> compile_water(const Scene& scene, const CompileOptions& options) {

@@ -4,6 +4,8 @@
 #include <atomic>
 #include <cassert>
 #include <cmath>
+#include <limits>
+#include <queue>
 #include <thread>
 
 #include "nodes/blend.hpp"
@@ -21,10 +23,7 @@ NodeBounds no_weight_bounds() {
 // what makes blends of many tall features traceable.
 void tighten_with_centre(const NodeKernels& k, const float* params, const BoundsQuery& q,
                          NodeBounds& b) {
-  if (!std::isfinite(q.box.lo.x) || !std::isfinite(q.box.hi.x) || !std::isfinite(q.box.lo.y) ||
-      !std::isfinite(q.box.hi.y)) {
-    return;
-  }
+  if (!q.box.is_finite()) return;
   PointBlock centre;
   centre.count = 1;
   centre.spacing = q.spacing;
@@ -42,6 +41,9 @@ void tighten_with_centre(const NodeKernels& k, const float* params, const Bounds
   b.weight.hi = std::min(b.weight.hi, out.a[0] + b.weight_lipschitz * r + 1e-6f);
   b.weight.lo = std::max(b.weight.lo, 0.0f);
   if (b.weight.lo > b.weight.hi) b.weight.lo = b.weight.hi;
+  if (k.weight_lipschitz_near != nullptr && b.weight_lipschitz > 0.0f) {
+    b.weight_lipschitz = std::min(b.weight_lipschitz, k.weight_lipschitz_near(params, out.a[0], r));
+  }
 }
 
 // A subtree ending at `last` has no weight anywhere in the block. Its parent ignores it there: a
@@ -216,7 +218,7 @@ NodeBounds Evaluator::bounds(const BoundsQuery& query) {
       case Op::warp_end:
         q = s.queries.back();
         s.queries.pop_back();
-        s.bounds.back() = k.warp_bounds(params, s.bounds.back());
+        s.bounds.back() = k.warp_bounds(params, q, s.bounds.back());
         break;
     }
   }
@@ -224,8 +226,61 @@ NodeBounds Evaluator::bounds(const BoundsQuery& query) {
 }
 
 const NodeBounds& Evaluator::global_bounds() {
-  if (!global_) global_ = bounds({Box2::everywhere(), 0.0f});
+  if (!global_) {
+    global_ = bounds({Box2::everywhere(), 0.0f});
+    // compile() stores the partitioned bound, which no single query can match.
+    global_->elevation_lipschitz =
+        std::min(global_->elevation_lipschitz, program_.bounds.elevation_lipschitz);
+  }
   return *global_;
+}
+
+float partitioned_lipschitz(Evaluator& evaluator, int max_queries) {
+  const NodeBounds whole = evaluator.bounds({Box2::everywhere(), 0.0f});
+  const Box2 s = whole.support;
+  if (s.empty() || !s.is_finite() || max_queries < 20) return whole.elevation_lipschitz;
+  const float inf = std::numeric_limits<float>::infinity();
+  int queries = 0;
+  auto bound_of = [&](const Box2& box) {
+    ++queries;
+    return evaluator.bounds({box, 0.0f}).elevation_lipschitz;
+  };
+  // The plane outside the support, as four unbounded boxes.
+  float outside = 0.0f;
+  for (const Box2& box :
+       {Box2{{-inf, -inf}, {s.lo.x, inf}}, Box2{{s.hi.x, -inf}, {inf, inf}},
+        Box2{{s.lo.x, -inf}, {s.hi.x, s.lo.y}}, Box2{{s.lo.x, s.hi.y}, {s.hi.x, inf}}}) {
+    outside = std::max(outside, bound_of(box));
+  }
+  // The support, refined where the bound is highest: the answer is the top of the queue.
+  using Cell = std::pair<float, Box2>;
+  auto lower = [](const Cell& a, const Cell& b) { return a.first < b.first; };
+  std::priority_queue<Cell, std::vector<Cell>, decltype(lower)> cells(lower);
+  auto push_quarters = [&](const Box2& box, int n) {
+    const Vec2 size = box.size();
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        const auto fi = static_cast<float>(i), fj = static_cast<float>(j);
+        const auto fn = static_cast<float>(n);
+        const Vec2 lo{box.lo.x + size.x * fi / fn, box.lo.y + size.y * fj / fn};
+        // The last row and column end exactly on the box, so no sliver is left out by rounding.
+        const Vec2 hi{i + 1 == n ? box.hi.x : box.lo.x + size.x * (fi + 1) / fn,
+                      j + 1 == n ? box.hi.y : box.lo.y + size.y * (fj + 1) / fn};
+        const Box2 cell{lo, hi};
+        cells.emplace(bound_of(cell), cell);
+      }
+    }
+  };
+  push_quarters(s, 4);
+  // A cell is cut while its bound exceeds what is already certain (the largest bound outside)
+  // and cutting can still shrink it; cells of a metre are left whole.
+  while (queries + 4 <= max_queries && cells.top().first > outside &&
+         std::max(cells.top().second.size().x, cells.top().second.size().y) > 1.0f) {
+    const Box2 box = cells.top().second;
+    cells.pop();
+    push_quarters(box, 2);
+  }
+  return std::max(outside, cells.top().first);
 }
 
 GridResult evaluate_grid(const Program& program, const GridSpec& grid, int threads) {
@@ -351,7 +406,7 @@ NodeBounds tree_bounds(const Node& node, const BoundsQuery& query) {
     case NodeCategory::warp: {
       BoundsQuery inner{k.warp_box(params, query.box), query.spacing};
       if (k.warp_spacing != nullptr) inner.spacing = k.warp_spacing(params, query.spacing);
-      return k.warp_bounds(params, tree_bounds(*node.children[0], inner));
+      return k.warp_bounds(params, query, tree_bounds(*node.children[0], inner));
     }
   }
   return {};

@@ -1,6 +1,7 @@
 #include "terrain/field.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "simd.hpp"
@@ -48,6 +49,31 @@ Interval Falloff::range(Interval distance, float r) {
   eval(distance.lo, r, g_near, dg);
   eval(distance.hi, r, g_far, dg);
   return {g_far, g_near};
+}
+
+float Falloff::lipschitz(Interval distance, float r) {
+  const double peak = 1.0 / std::sqrt(5.0);
+  // Widened by the float rounding of the distances (the slope is steep in t near the rim).
+  const double lo = std::max(0.0, static_cast<double>(distance.lo) * (1.0 - 1e-6) / r);
+  const double hi = static_cast<double>(distance.hi) * (1.0 + 1e-6) / r;
+  if (!(lo < 1.0)) return 0.0f;  // the whole range lies outside the fall-off (or is NaN)
+  const double t = std::clamp(peak, lo, std::min(hi, 1.0));
+  const double u = 1.0 - t * t;
+  // Rounded up past the float evaluation's error, never above the global peak bound.
+  const auto slope = static_cast<float>(6.0 * t * u * u / r * (1.0 + 1e-5) + 1e-30);
+  return std::min(slope, lipschitz(r));
+}
+
+Interval Falloff::distances_of(float weight, float r) {
+  // d = r·√(1 − ∛g), decreasing in g; a weight known to about 1e-7 is widened by 2e-6.
+  auto distance = [r](double g) {
+    return static_cast<double>(r) *
+           std::sqrt(std::max(0.0, 1.0 - std::cbrt(std::clamp(g, 0.0, 1.0))));
+  };
+  const double w = weight;
+  if (!(w > 0.0)) return {r * (1.0f - 1e-6f), std::numeric_limits<float>::infinity()};
+  return {static_cast<float>(distance(w + 2e-6) * (1.0 - 1e-6)),
+          static_cast<float>(distance(w - 2e-6) * (1.0 + 1e-6))};
 }
 
 }  // namespace terrain

@@ -223,7 +223,7 @@ class DiffBuilder {
         const NodeBounds& child_global = global_bounds(child);
         const BoundsQuery inner{k.warp_box(params, Box2::everywhere()), inner_spacing(n, 0.0f)};
         const bool plane = same_box(inner.box, Box2::everywhere()) && inner.spacing == 0.0f;
-        b = k.warp_bounds(params, plane ? child_global : tree_bounds(child, inner));
+        b = k.warp_bounds(params, {}, plane ? child_global : tree_bounds(child, inner));
         break;
       }
     }
@@ -256,7 +256,7 @@ class DiffBuilder {
           NodeBounds child;
           child.support = inner;
           d.reach = padded(
-              d.before->type->kernels.warp_bounds(d.before->params.pool.data(), child).support);
+              d.before->type->kernels.warp_bounds(d.before->params.pool.data(), {}, child).support);
           if (!finite(d.reach)) d.reach = Box2::everywhere();
         }
       }

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <string>
@@ -75,26 +76,31 @@ inline void expect_gradients_match(const Scene& scene, int samples, float spacin
   EXPECT_LE(mismatches, samples / 50) << "gradient mismatches in " << scene.name;
 }
 
-/// Sampled slopes never exceed the Lipschitz bounds, globally and over random boxes; values stay
-/// in their ranges; α vanishes outside the support.
+/// Sampled slopes never exceed the Lipschitz bounds, globally and over random boxes from half a
+/// metre (where bounds come from each octave's own slope) to a fifth of the scene, at full and
+/// at coarse detail; values stay in their ranges; α vanishes outside the support.
 inline void expect_bounds_hold(const Scene& scene, int boxes, int pairs_per_box) {
   const Program program = compile_or_die(scene);
   Evaluator e(program);
   std::mt19937 rng(777);
   const Box2 region = sampling_box(scene);
   const NodeBounds global = e.bounds({Box2::everywhere(), 0.0f});
+  // The program's global bound (the maximum over a partition of the plane) is sound too.
+  EXPECT_LE(program.bounds.elevation_lipschitz, global.elevation_lipschitz * 1.0001f + 1e-6f);
   const float extent = std::max(region.size().x, region.size().y);
-  std::uniform_real_distribution<float> size_dist(0.002f * extent, 0.2f * extent);
+  std::uniform_real_distribution<float> log_size(std::log(0.5f), std::log(0.2f * extent));
   for (int b = 0; b < boxes; ++b) {
     const Vec2 c = random_point(rng, region);
-    const float half = size_dist(rng);
+    const float half = std::exp(log_size(rng));
     const Box2 box = Box2::around(c, half);
-    const NodeBounds local = e.bounds({box, 0.0f});
+    // One box in three at a coarse level of detail (octaves dropped by the sample spacing).
+    const float spacing = b % 3 == 2 ? 0.05f * half : 0.0f;
+    const NodeBounds local = e.bounds({box, spacing});
     EXPECT_LE(local.elevation_lipschitz, global.elevation_lipschitz * 1.0001f + 1e-6f);
     for (int k = 0; k < pairs_per_box; ++k) {
       const Vec2 p = random_point(rng, box);
       const Vec2 q = random_point(rng, box);
-      const FieldSample sp = e.sample(p), sq = e.sample(q);
+      const FieldSample sp = e.sample(p, spacing), sq = e.sample(q, spacing);
       const float d = length(p - q);
       const float tol = 1e-4f * (1.0f + std::abs(sp.elevation));
       ASSERT_LE(std::abs(sp.elevation - sq.elevation), local.elevation_lipschitz * d * 1.001f + tol)
@@ -103,6 +109,8 @@ inline void expect_bounds_hold(const Scene& scene, int boxes, int pairs_per_box)
           << scene.name << ": weight slope bound broken";
       ASSERT_LE(length(sp.elevation_gradient), local.elevation_lipschitz * 1.001f + 1e-4f)
           << scene.name << ": |∇f| above the local bound at (" << p.x << ", " << p.y << ")";
+      ASSERT_LE(length(sp.elevation_gradient), program.bounds.elevation_lipschitz * 1.001f + 1e-4f)
+          << scene.name << ": |∇f| above the global bound at (" << p.x << ", " << p.y << ")";
       ASSERT_GE(sp.elevation, local.elevation.lo - tol) << scene.name;
       ASSERT_LE(sp.elevation, local.elevation.hi + tol) << scene.name;
       ASSERT_GE(sp.weight, -1e-6f);

@@ -39,6 +39,14 @@ class Evaluator {
   std::optional<NodeBounds> global_;
 };
 
+/// A Lipschitz bound of the root over the whole plane at full detail, as the largest local bound
+/// over a partition of the plane: the root's support cut into boxes, those with the highest bound
+/// cut again while fewer than `max_queries` box queries have been made, and the four unbounded
+/// boxes around it. Every local bound is sound, so their maximum is; it is far tighter than one
+/// query over the plane, where the worst cases of features that never meet add up (a blend sums
+/// every child's weight slope).
+float partitioned_lipschitz(Evaluator& evaluator, int max_queries = 2048);
+
 /// A regular grid of samples: point (i, j) is origin + (i, j)·step; row j = 0 is the southern row.
 struct GridSpec {
   double origin_x = 0.0;

@@ -75,6 +75,12 @@ struct Falloff {
   }
   /// max |g'| = 96√5 / (125 r) (Génevaux, Appendix).
   static float lipschitz(float r) { return 1.7173003f / r; }
+  /// max |g'| over distances in [dmin, dmax]: |g'(d)| = 6t(1 − t²)²/r (t = d/r) rises to its peak
+  /// at t = 1/√5 and falls to 0 at t = 1, so near the rim a box's bound is far below the peak.
+  static float lipschitz(Interval distance, float r);
+  /// The distances at which g could take the value `weight` (widened by its float rounding):
+  /// [0, 0] at 1, [r, ∞) at 0.
+  static Interval distances_of(float weight, float r);
   /// Range of g over distances in [dmin, dmax].
   static Interval range(Interval distance, float r);
 };

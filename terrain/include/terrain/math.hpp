@@ -71,6 +71,10 @@ struct Box2 {
   }
   constexpr Box2 expanded(float r) const { return {{lo.x - r, lo.y - r}, {hi.x + r, hi.y + r}}; }
   constexpr Box2 with(Vec2 p) const { return united(of_point(p)); }
+  /// Whether every corner is a finite number (not a half-plane or the whole plane).
+  bool is_finite() const {
+    return std::isfinite(lo.x) && std::isfinite(lo.y) && std::isfinite(hi.x) && std::isfinite(hi.y);
+  }
   constexpr Vec2 center() const { return {(lo.x + hi.x) * 0.5f, (lo.y + hi.y) * 0.5f}; }
   constexpr Vec2 size() const { return {hi.x - lo.x, hi.y - lo.y}; }
   /// Distance range from a point to any point of the box (0 when inside).

@@ -47,6 +47,9 @@ struct NodeKernels {
   /// culled for this block.
   bool (*leaf_where_weighted)(const float* params, const PointBlock& points,
                               FieldBlock& out) = nullptr;
+  /// Optional: a bound of |∇α| within `radius` of a point where α = `weight`, for primitives
+  /// whose weight falls off with a distance that leaf_bounds cannot bound over a box.
+  float (*weight_lipschitz_near)(const float* params, float weight, float radius) = nullptr;
   // binary: `out` may alias `a`
   void (*combine)(const float* params, const PointBlock& points, const FieldBlock& a,
                   const FieldBlock& b, FieldBlock& out) = nullptr;
@@ -58,7 +61,9 @@ struct NodeKernels {
   void (*warp_field)(const float* params, int count, const WarpJacobian& jacobian,
                      FieldBlock& field) = nullptr;
   Box2 (*warp_box)(const float* params, const Box2& box) = nullptr;  ///< parent box → child box
-  NodeBounds (*warp_bounds)(const float* params, const NodeBounds& child) = nullptr;
+  /// The node's bounds over the parent's `query` from its child's (over warp_box of it).
+  NodeBounds (*warp_bounds)(const float* params, const BoundsQuery& query,
+                            const NodeBounds& child) = nullptr;
   /// parent sample spacing → child sample spacing (nullptr: unchanged)
   float (*warp_spacing)(const float* params, float spacing) = nullptr;
 };

@@ -55,6 +55,12 @@ struct CompileOptions {
   int blend_leaf_size = 4;  ///< children per BVH leaf in large blends
   bool concatenate_affine = true;
   bool cull = true;  ///< emit cull/group boxes (false: plain traversal)
+  /// Box queries spent on the global Lipschitz bound (partitioned_lipschitz): more is tighter and
+  /// slower (about 40 µs each on the mountain-range example); 0 keeps the single-query bound.
+  int bound_queries = 2048;
+  /// At most this many instructions walked by those queries together, so a large scene's compile
+  /// stays bounded (a query walks at most the whole program): fewer queries for longer programs.
+  std::int64_t bound_instruction_budget = 2'000'000;
 };
 
 /// Where a blend child with this support (tree_bounds(child, {}).support) goes in its blend's

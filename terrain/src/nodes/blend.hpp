@@ -22,9 +22,25 @@ struct BlendBoundsAccumulator {
   Interval elevation;
   Interval weight{0, 0};
   float max_elevation_lipschitz = 0.0f;
+  float weighted_elevation_lipschitz = 0.0f;  ///< Σ (highest α_i) · L_i
   float sum_weight_lipschitz = 0.0f;
+  /// The weighted children's bounds, kept (up to kKept of them) to bound the weighted mean and
+  /// its slope from each child's own weight and range rather than from their sums and hull.
+  static constexpr int kKept = 16;
+  struct Child {
+    Interval weight;
+    Interval elevation;
+    float elevation_lipschitz = 0.0f;
+    float weight_lipschitz = 0.0f;
+  };
+  Child kept[kKept];
+  int children = 0;
   void add(const NodeBounds& child);
   NodeBounds finish(const float* params) const;
+
+ private:
+  Interval weighted_mean_range(float threshold, float base) const;
+  float weighted_slope(float threshold) const;
 };
 
 }  // namespace terrain

@@ -212,6 +212,14 @@ NodeBounds curve_bounds(const float* params, const BoundsQuery& query) {
                        params[kLipschitz], Falloff::lipschitz(falloff), query);
 }
 
+// α = g(e) with e = max(0, |d| − core), 1-Lipschitz: within `radius` of a point where α is known,
+// e lies within `radius` of the distances that give that weight.
+float curve_weight_lipschitz_near(const float* params, float weight, float radius) {
+  const float falloff = params[kFalloff];
+  const Interval e = Falloff::distances_of(weight, falloff);
+  return Falloff::lipschitz({std::max(0.0f, e.lo - radius), e.hi + radius}, falloff);
+}
+
 }  // namespace
 
 namespace {
@@ -235,7 +243,8 @@ const NodeType& curve_node_type() {
       .parse = parse_curve,
       .kernels = {.leaf = curve_leaf,
                   .leaf_bounds = curve_bounds,
-                  .leaf_where_weighted = curve_leaf_where_weighted},
+                  .leaf_where_weighted = curve_leaf_where_weighted,
+                  .weight_lipschitz_near = curve_weight_lipschitz_near},
       .example_json = R"({"type": "curve", "falloff": 120,
  "pieces": [[[-1500, -200, 110], [-500, 300, 100], [0, -100, 95]],
             [[0, -100, 95], [600, -500, 90], [900, 400, 88], [1500, 100, 80]]],

@@ -176,16 +176,28 @@ NodeBounds disc_bounds(const float* params, const BoundsQuery& query) {
   NodeBounds b;
   b.support = Box2::around(c, radius);
   const bool touches = query.box.intersects(b.support);
-  b.weight = touches ? Falloff::range(query.box.distance_range(c), radius) : Interval{0, 0};
-  b.weight_lipschitz = touches ? Falloff::lipschitz(radius) : 0.0f;
+  const Interval distance = query.box.distance_range(c);
+  b.weight = touches ? Falloff::range(distance, radius) : Interval{0, 0};
+  b.weight_lipschitz = touches ? Falloff::lipschitz(distance, radius) : 0.0f;
   if (fractal.amplitude == 0.0f) {
     b.elevation = Interval::point(params[kElevation]);
     return b;
   }
   const float octaves = noise::visible_octaves(fractal, query.spacing);
-  const Interval range = noise::fractal_range(fractal, octaves);
-  b.elevation = {range.lo + params[kElevation], range.hi + params[kElevation]};
-  b.elevation_lipschitz = noise::fractal_lipschitz(fractal, octaves, radius);
+  noise::RegionBounds noise_bounds{noise::fractal_range(fractal, octaves),
+                                   noise::fractal_lipschitz(fractal, octaves, radius)};
+  if (query.box.is_finite() && fractal.kind != noise::Fractal::warped) {
+    // Over a box, each octave's own slope there (the noise is evaluated at offsets from c).
+    // The half diagonal, widened by the rounding of the offsets (the box's and the kernel's).
+    const Box2& q = query.box;
+    const float rounding = 2e-7f * (std::abs(q.lo.x) + std::abs(q.hi.x) + std::abs(q.lo.y) +
+                                    std::abs(q.hi.y) + std::abs(c.x) + std::abs(c.y));
+    const float reach = 0.5f * length(q.size()) * 1.000001f + rounding;
+    noise_bounds = noise::fractal_bounds_near(fractal, octaves, query.box.center() - c, reach);
+  }
+  b.elevation = {noise_bounds.value.lo + params[kElevation],
+                 noise_bounds.value.hi + params[kElevation]};
+  b.elevation_lipschitz = noise_bounds.lipschitz;
   return b;
 }
 

@@ -62,9 +62,16 @@ NodeBounds replace_bounds(const float* params, const BoundsQuery&, const NodeBou
   if (has_no_weight(b)) return out;
   const float w_max = std::min(b.weight.hi, 1.0f);
   out.elevation = a.elevation.hull(b.elevation);
-  // ∇f = (1−w)∇f_A + w∇f_B + ∇w (f_B − f_A)
-  out.elevation_lipschitz = std::max(a.elevation_lipschitz, b.elevation_lipschitz) +
-                            b.weight_lipschitz * max_difference(a.elevation, b.elevation);
+  // ∇f = (1−w)∇f_A + w∇f_B + ∇w (f_B − f_A), with w in [w_lo, w_max]: the first two terms are
+  // linear in w, so their bound is largest at one end of that range.
+  const float w_min = std::clamp(b.weight.lo, 0.0f, w_max);
+  auto mixed = [&](float w) {
+    return (1.0f - w) * a.elevation_lipschitz + w * b.elevation_lipschitz;
+  };
+  const float children_slope = std::min(std::max(a.elevation_lipschitz, b.elevation_lipschitz),
+                                        std::max(mixed(w_min), mixed(w_max)) * 1.00001f);
+  out.elevation_lipschitz =
+      children_slope + b.weight_lipschitz * max_difference(a.elevation, b.elevation);
   if (progressive) {
     out.weight = {0.0f, std::max(a.weight.hi, w_max)};
     out.weight_lipschitz = a.weight_lipschitz + b.weight_lipschitz * (a.weight.hi + 2.0f * w_max);

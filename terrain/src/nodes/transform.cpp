@@ -115,7 +115,7 @@ Box2 transform_box(const float* params, const Box2& box) {
   return map_box(params, box);
 }
 
-NodeBounds transform_bounds(const float* params, const NodeBounds& child) {
+NodeBounds transform_bounds(const float* params, const BoundsQuery&, const NodeBounds& child) {
   const AffineParams p = AffineParams::unpack(params);
   NodeBounds out = child;
   out.support = child.support.empty() ? child.support : map_box(p.forward, child.support);

@@ -21,6 +21,20 @@ float displacement_bound(const noise::FractalParams& p, float octaves) {
   return std::max(std::abs(r.lo), std::abs(r.hi));
 }
 
+// Bounds of one displacement component over `box`: its own slope and range there when the box
+// is finite (a box small beside the noise's wavelength moves and stretches little), else the
+// global ones.
+noise::RegionBounds component_bounds(const noise::FractalParams& p, const Box2& box) {
+  const auto octaves = static_cast<float>(p.octaves);
+  if (!box.is_finite()) {
+    return {noise::fractal_range(p, octaves), noise::fractal_lipschitz(p, octaves, 0.0f)};
+  }
+  const float rounding =
+      2e-7f * (std::abs(box.lo.x) + std::abs(box.hi.x) + std::abs(box.lo.y) + std::abs(box.hi.y));
+  return noise::fractal_bounds_near(p, octaves, box.center(),
+                                    0.5f * length(box.size()) * 1.000001f + rounding);
+}
+
 Result<NodeParams> parse_warp(FieldReader& reader, ParseContext& context) {
   NodeParams out;
   FieldReader noise_reader = reader.nested("noise");
@@ -82,18 +96,34 @@ TERRAIN_SIMD_CLONES void warp_field(const float*, int count, const WarpJacobian&
   }
 }
 
+// The child sees q = p + d(p): the box moved by the displacement's range over it.
 Box2 warp_box(const float* params, const Box2& box) {
-  const noise::FractalParams p = component(params, 1);
-  return box.expanded(displacement_bound(p, static_cast<float>(p.octaves)));
+  if (box.empty()) return box;
+  const noise::RegionBounds dx = component_bounds(component(params, 1), box);
+  const noise::RegionBounds dy = component_bounds(component(params, 2), box);
+  if (!box.is_finite()) {
+    const float reach = std::max({std::abs(dx.value.lo), std::abs(dx.value.hi),
+                                  std::abs(dy.value.lo), std::abs(dy.value.hi)});
+    return box.expanded(reach);
+  }
+  // Rounded outwards by the float addition p + d.
+  const Box2 moved{{box.lo.x + dx.value.lo, box.lo.y + dy.value.lo},
+                   {box.hi.x + dx.value.hi, box.hi.y + dy.value.hi}};
+  return moved.expanded(1e-6f * (1.0f + std::max({std::abs(moved.lo.x), std::abs(moved.hi.x),
+                                                  std::abs(moved.lo.y), std::abs(moved.hi.y)})));
 }
 
-NodeBounds warp_bounds(const float* params, const NodeBounds& child) {
+// ‖∂q/∂p‖ = ‖I + ∇d‖ ≤ 1 + ‖∇d‖_F ≤ 1 + √(L_x² + L_y²), with each component's slope over the
+// parent's query box.
+NodeBounds warp_bounds(const float* params, const BoundsQuery& query, const NodeBounds& child) {
   const noise::FractalParams p = component(params, 1);
   const float octaves = static_cast<float>(p.octaves);
   NodeBounds out = child;
   out.support = child.support.empty() ? child.support
                                       : child.support.expanded(displacement_bound(p, octaves));
-  const float stretch = 1.0f + std::sqrt(2.0f) * noise::fractal_lipschitz(p, octaves, 0.0f);
+  const float lx = component_bounds(p, query.box).lipschitz;
+  const float ly = component_bounds(component(params, 2), query.box).lipschitz;
+  const float stretch = 1.0f + std::sqrt(lx * lx + ly * ly) * 1.000001f;
   out.elevation_lipschitz = child.elevation_lipschitz * stretch;
   out.weight_lipschitz = child.weight_lipschitz * stretch;
   return out;
