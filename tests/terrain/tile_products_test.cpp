@@ -288,8 +288,10 @@ TEST(LayerJson, AvailabilityTilesAgreeWithLayerJson) {
       const auto& whole = available[static_cast<std::size_t>(a.z + k)][0];
       const std::int64_t x0 = std::max<std::int64_t>(whole["startX"].get<std::int64_t>(), a.x << k);
       const std::int64_t y0 = std::max<std::int64_t>(whole["startY"].get<std::int64_t>(), a.y << k);
-      const std::int64_t x1 = std::min<std::int64_t>(whole["endX"].get<std::int64_t>(), ((a.x + 1) << k) - 1);
-      const std::int64_t y1 = std::min<std::int64_t>(whole["endY"].get<std::int64_t>(), ((a.y + 1) << k) - 1);
+      const std::int64_t x1 =
+          std::min<std::int64_t>(whole["endX"].get<std::int64_t>(), ((a.x + 1) << k) - 1);
+      const std::int64_t y1 =
+          std::min<std::int64_t>(whole["endY"].get<std::int64_t>(), ((a.y + 1) << k) - 1);
       const auto& level = listed[static_cast<std::size_t>(k - 1)];
       if (x0 > x1 || y0 > y1) {
         EXPECT_TRUE(level.empty()) << a.z << "/" << a.x << "/" << a.y << " level +" << k;
