@@ -65,8 +65,8 @@ vec3 trace_ray_direction(TraceCamera c, vec2 pixel) {
   return trace_normalise(d);
 }
 
-// LipschitzGrid::bound over the box [lo, hi] at sample spacing `spacing`.
-float trace_bound(vec2 lo, vec2 hi, float spacing) {
+// LipschitzGrid::bound over the box [lo, hi] at sample spacings `spacing` to `far_spacing`.
+float trace_bound(vec2 lo, vec2 hi, float spacing, float far_spacing) {
   int cells = int(fetch_bounds(0u));
   int levels = int(fetch_bounds(1u));
   float global_bound = fetch_bounds(2u);
@@ -77,6 +77,10 @@ float trace_bound(vec2 lo, vec2 hi, float spacing) {
   }
   int level = 0;
   while (level + 1 < levels && fetch_bounds(7u + uint(level + 1)) <= spacing) ++level;
+  int last_level = level;
+  while (last_level + 1 < levels && fetch_bounds(7u + uint(last_level + 1)) < far_spacing) {
+    ++last_level;
+  }
   TERRAIN_PRECISE vec2 size = area_hi - area_lo;
   float last = float(cells - 1);
   // floor, then clamp to the grid; clamping before the int conversion keeps far boxes defined
@@ -87,11 +91,15 @@ float trace_bound(vec2 lo, vec2 hi, float spacing) {
   int i1 = int(clamp(floor(c1.x), 0.0, last));
   int j0 = int(clamp(floor(c0.y), 0.0, last));
   int j1 = int(clamp(floor(c1.y), 0.0, last));
-  if ((i1 - i0 + 1) * (j1 - j0 + 1) > cells * cells / 4) return global_bound;
-  uint grid = 7u + uint(levels) + uint(level * cells * cells);
+  if ((i1 - i0 + 1) * (j1 - j0 + 1) * (last_level - level + 1) > cells * cells / 4) {
+    return global_bound;
+  }
   float worst = 0.0;
-  for (int j = j0; j <= j1; ++j) {
-    for (int i = i0; i <= i1; ++i) worst = max(worst, fetch_bounds(grid + uint(j * cells + i)));
+  for (int k = level; k <= last_level; ++k) {
+    uint grid = 7u + uint(levels) + uint(k * cells * cells);
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i) worst = max(worst, fetch_bounds(grid + uint(j * cells + i)));
+    }
   }
   return worst;
 }
@@ -174,8 +182,9 @@ void trace_advance(TraceSetup s, vec3 origin, vec3 direction, inout TraceState s
     if (s.accelerated) {
       // Local bound over the candidate segment [t, t + δ] (its horizontal footprint).
       TERRAIN_PRECISE float ahead = t + state.delta;
+      TERRAIN_PRECISE float far_spacing = s.lod_per_metre * ahead;
       vec3 q = trace_at(origin, direction, ahead);
-      lambda = trace_bound(min(p.xy, q.xy), max(p.xy, q.xy), spacing);
+      lambda = trace_bound(min(p.xy, q.xy), max(p.xy, q.xy), spacing, far_spacing);
       state.last_lambda = lambda;
       limit = state.delta;
     }

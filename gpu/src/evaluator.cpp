@@ -76,9 +76,10 @@ std::uint64_t fingerprint(const terrain::Program& p) {
 
 // Loop iterations llvmpipe allows one invocation, with room for the tracer's own loops.
 constexpr std::size_t kLoopBudget = 60000;
-// trace_bound's cell loops (at most a quarter of 64 × 64 cells, plus rows and levels) and the
-// step loop itself.
-constexpr std::size_t kTraceStepLoops = 64 * 64 / 4 + 64 + 8;
+// trace_bound's cell loops (at most a quarter of 64 × 64 cells over the levels a segment's band
+// of spacings covers, their rows on each of five levels, and the level searches) and the step
+// loop itself.
+constexpr std::size_t kTraceStepLoops = 64 * 64 / 4 + 5 * 64 + 2 * 5 + 8;
 
 }  // namespace
 

@@ -18,25 +18,48 @@ NodeBounds no_weight_bounds() {
   return NodeBounds{};
 }
 
+// The leaf's field at one point at one sample spacing.
+FieldBlock leaf_at(const NodeKernels& k, const float* params, Vec2 p, float spacing) {
+  PointBlock point;
+  point.count = 1;
+  point.spacing = spacing;
+  point.x[0] = p.x;
+  point.y[0] = p.y;
+  point.box = Box2::of_point(p);
+  FieldBlock out;
+  k.leaf(params, point, out);
+  return out;
+}
+
 // Over a finite box, a primitive's ranges shrink to its value at the centre ± its Lipschitz
 // bound times the half diagonal: cheap (one sample) and it keeps local bounds local, which is
-// what makes blends of many tall features traceable.
+// what makes blends of many tall features traceable. Over a band of spacings the centre is
+// sampled at both ends: a value that is the same at both (the leaf's octave count, which only
+// falls with the spacing, does not change) is the value throughout; one that differs says
+// nothing between them.
 void tighten_with_centre(const NodeKernels& k, const float* params, const BoundsQuery& q,
                          NodeBounds& b) {
   if (!q.box.is_finite()) return;
-  PointBlock centre;
-  centre.count = 1;
-  centre.spacing = q.spacing;
+  const bool band = q.coarsest() > q.spacing;
+  if (band && k.varies_with_spacing != nullptr &&
+      k.varies_with_spacing(params, q.spacing, q.coarsest())) {
+    return;
+  }
   const Vec2 c = q.box.center();
-  centre.x[0] = c.x;
-  centre.y[0] = c.y;
-  centre.box = Box2::of_point(c);
-  FieldBlock out;
-  k.leaf(params, centre, out);
+  const FieldBlock out = leaf_at(k, params, c, q.spacing);
+  bool same_elevation = true, same_weight = true;
+  if (band && k.varies_with_spacing == nullptr) {
+    const FieldBlock coarse = leaf_at(k, params, c, q.coarsest());
+    same_elevation = coarse.f[0] == out.f[0];
+    same_weight = coarse.a[0] == out.a[0];
+  }
   const float r = 0.5f * length(q.box.size()) * 1.0001f;
-  const float slack = 1e-4f * (1.0f + std::abs(out.f[0]));  // float rounding of the sample
-  b.elevation.lo = std::max(b.elevation.lo, out.f[0] - b.elevation_lipschitz * r - slack);
-  b.elevation.hi = std::min(b.elevation.hi, out.f[0] + b.elevation_lipschitz * r + slack);
+  if (same_elevation) {
+    const float slack = 1e-4f * (1.0f + std::abs(out.f[0]));  // float rounding of the sample
+    b.elevation.lo = std::max(b.elevation.lo, out.f[0] - b.elevation_lipschitz * r - slack);
+    b.elevation.hi = std::min(b.elevation.hi, out.f[0] + b.elevation_lipschitz * r + slack);
+  }
+  if (!same_weight) return;
   b.weight.lo = std::max(b.weight.lo, out.a[0] - b.weight_lipschitz * r - 1e-6f);
   b.weight.hi = std::min(b.weight.hi, out.a[0] + b.weight_lipschitz * r + 1e-6f);
   b.weight.lo = std::max(b.weight.lo, 0.0f);
@@ -212,8 +235,11 @@ NodeBounds Evaluator::bounds(const BoundsQuery& query) {
       }
       case Op::warp_begin:
         s.queries.push_back(q);
-        q.box = k.warp_box(params, q.box);
-        if (k.warp_spacing != nullptr) q.spacing = k.warp_spacing(params, q.spacing);
+        q.box = k.warp_box(params, q);
+        if (k.warp_spacing != nullptr) {
+          q.spacing = k.warp_spacing(params, q.spacing);
+          q.coarsest_spacing = k.warp_spacing(params, q.coarsest_spacing);
+        }
         break;
       case Op::warp_end:
         q = s.queries.back();
@@ -404,8 +430,11 @@ NodeBounds tree_bounds(const Node& node, const BoundsQuery& query) {
       return k.combine_bounds(params, query, tree_bounds(*node.children[0], query),
                               tree_bounds(*node.children[1], query));
     case NodeCategory::warp: {
-      BoundsQuery inner{k.warp_box(params, query.box), query.spacing};
-      if (k.warp_spacing != nullptr) inner.spacing = k.warp_spacing(params, query.spacing);
+      BoundsQuery inner{k.warp_box(params, query), query.spacing, query.coarsest_spacing};
+      if (k.warp_spacing != nullptr) {
+        inner.spacing = k.warp_spacing(params, query.spacing);
+        inner.coarsest_spacing = k.warp_spacing(params, query.coarsest_spacing);
+      }
       return k.warp_bounds(params, query, tree_bounds(*node.children[0], inner));
     }
   }

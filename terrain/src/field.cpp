@@ -71,6 +71,7 @@ Interval Falloff::distances_of(float weight, float r) {
            std::sqrt(std::max(0.0, 1.0 - std::cbrt(std::clamp(g, 0.0, 1.0))));
   };
   const double w = weight;
+  if (!std::isfinite(w)) return {0.0f, std::numeric_limits<float>::infinity()};  // unknown
   if (!(w > 0.0)) return {r * (1.0f - 1e-6f), std::numeric_limits<float>::infinity()};
   return {static_cast<float>(distance(w + 2e-6) * (1.0 - 1e-6)),
           static_cast<float>(distance(w - 2e-6) * (1.0 + 1e-6))};

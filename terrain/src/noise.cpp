@@ -1404,8 +1404,10 @@ Range squared(Range a) {
 
 // `reach(octave)` says what is known of each octave over the region: the whole basis range and
 // its Lipschitz constant for global bounds, or far less over a small region (fractal_bounds_near).
+// With `least`, each octave's amplitude at the smallest octave count, the bounds hold for every
+// count from that to the plan's: each octave's amplitude (its weight included) is an interval.
 template <class Reach>
-FractalBounds bounds_of(const Plan& plan, double radius, Reach reach) {
+FractalBounds bounds_of(const Plan& plan, const double* least, double radius, Reach reach) {
   FractalBounds out;
   const Fractal kind = plan.kind;
   const double offset = plan.ridge_offset;
@@ -1423,11 +1425,12 @@ FractalBounds bounds_of(const Plan& plan, double radius, Reach reach) {
     const Octave& o = plan.octave[static_cast<std::size_t>(i)];
     const double a = o.amplitude;  // includes the octave weight
     const double f = o.frequency;
+    const Range amplitude{least == nullptr ? a : least[i], a};
     const OctaveReach eta = reach(o);
     const double eta_slope = std::abs(f) * eta.slope;  // |∇η(f p)|
     switch (kind) {
       case Fractal::fbm: {
-        const Range term = scaled(eta.value, a);
+        const Range term = product(eta.value, amplitude);
         out.value.lo += term.lo;
         out.value.hi += term.hi;
         out.lipschitz += std::abs(a) * eta_slope;
@@ -1439,7 +1442,7 @@ FractalBounds bounds_of(const Plan& plan, double radius, Reach reach) {
         const Range m{offset - abs_eta.hi, offset - abs_eta.lo};
         const Range s = squared(m);
         const double s_slope = 2.0 * magnitude(m) * eta_slope;
-        const Range term = scaled(product(s, weight), a);
+        const Range term = product(product(s, weight), amplitude);
         out.value.lo += term.lo;
         out.value.hi += term.hi;
         out.lipschitz += std::abs(a) * (magnitude(weight) * s_slope + s.hi * weight_slope);
@@ -1456,7 +1459,7 @@ FractalBounds bounds_of(const Plan& plan, double radius, Reach reach) {
         const Range s = scaled({eta.value.lo + offset, eta.value.hi + offset}, g);
         const double s_slope = g * eta_slope;
         const Range ws = product(weight, s);
-        const Range term = scaled(ws, a);
+        const Range term = product(ws, amplitude);
         out.value.lo += term.lo;
         out.value.hi += term.hi;
         const double product_slope = magnitude(weight) * s_slope + magnitude(s) * weight_slope;
@@ -1482,7 +1485,7 @@ FractalBounds bounds_of(const Plan& plan, double radius, Reach reach) {
 }
 
 FractalBounds bounds_of(const FractalParams& p, float octaves, double radius, double lambda) {
-  return bounds_of(make_plan(p, octaves), radius, [lambda](const Octave&) {
+  return bounds_of(make_plan(p, octaves), nullptr, radius, [lambda](const Octave&) {
     return OctaveReach{{-1.0, 1.0}, lambda};
   });
 }
@@ -1585,24 +1588,35 @@ float fractal_lipschitz(const FractalParams& p, float octaves, float radius) {
   return round_up(bounds_of(p, octaves, r, lipschitz(p.basis, 2)).lipschitz);
 }
 
-RegionBounds fractal_bounds_near(const FractalParams& p, float octaves, Vec2 centre, float radius) {
+RegionBounds fractal_bounds_near(const FractalParams& p, Interval octaves, Vec2 centre,
+                                 float radius) {
   const double lambda = lipschitz(p.basis, 2);
-  if (p.kind == Fractal::warped || !(radius >= 0.0f) || !std::isfinite(centre.x) ||
-      !std::isfinite(centre.y)) {
-    return {fractal_range(p, octaves), fractal_lipschitz(p, octaves, radius)};
+  const float most = octaves.hi;
+  if (!std::isfinite(centre.x) || !std::isfinite(centre.y) || !(radius >= 0.0f)) {
+    return {fractal_range(p, most), fractal_lipschitz(p, most, std::numeric_limits<float>::max())};
   }
-  // A copy: the cache may drop its entry at the next lookup; copying costs far less than the
-  // plan's pow and hashes.
-  const Plan plan = cached_plan(p, octaves);
-  const FractalBounds global = bounds_of(plan, 0.0, [lambda](const Octave&) {
-    return OctaveReach{{-1.0, 1.0}, lambda};
-  });
+  if (p.kind == Fractal::warped) {
+    // Range and slope bound hold at any octave count up to `most`; the slope grows with the
+    // distance from the origin, at most |c| + r in the region.
+    return {fractal_range(p, most), fractal_lipschitz(p, most, length(centre) + radius)};
+  }
+  // Octave i's amplitude lies between the two octave counts' (weights rise with the count). The
+  // fewest's are copied out first: the next cache lookup may reuse its entry.
+  std::array<double, kMaxOctaves> least{};
+  {
+    const Plan& fewest = cached_plan(p, std::min(octaves.lo, most));
+    for (int i = 0; i < fewest.count; ++i) {
+      least[static_cast<std::size_t>(i)] = fewest.octave[static_cast<std::size_t>(i)].amplitude;
+    }
+  }
+  const Plan& plan = cached_plan(p, most);  // no lookup follows while it is in use
+  auto least_amplitude = [&](int i) { return least[static_cast<std::size_t>(i)]; };
   const double hessian = hessian_bound(p.basis, 2);
   // The float evaluation's own error is far below this slack (docs/noise.md).
   constexpr double kSlack = 1e-5;
   std::array<OctaveReach, kMaxOctaves> reach{};
-  // fBm only: the octaves bounded by Taylor add as vectors at the centre (value, gradient and
-  // curvature terms), the rest as their ranges and maximum slopes.
+  // fBm only: the octaves bounded by Taylor (with a fixed weight) add as vectors at the centre
+  // (value, gradient and curvature terms), the others as their ranges and slopes.
   double taylor_x = 0.0, taylor_y = 0.0, remainder = 0.0;
   double taylor_value = 0.0, curvature = 0.0;
   Range rest{0.0, 0.0};
@@ -1616,7 +1630,9 @@ RegionBounds fractal_bounds_near(const FractalParams& p, float octaves, Vec2 cen
     const float y = centre.y * o.frequency;
     const double rho = std::abs(static_cast<double>(o.frequency)) * radius +
                        4e-7 * (std::abs(x) + std::abs(y) + 1.0);
-    const double slope_scale = std::abs(static_cast<double>(o.amplitude) * o.frequency);
+    const double amplitude = o.amplitude;
+    const double slope_scale = std::abs(amplitude * o.frequency);
+    const bool fixed = least_amplitude(i) == amplitude;
     // Near the coordinate clamp the basis has a kink: no Taylor bound there.
     const bool smooth =
         std::abs(x) + rho < 0.5 * kCoordLimit && std::abs(y) + rho < 0.5 * kCoordLimit;
@@ -1624,42 +1640,41 @@ RegionBounds fractal_bounds_near(const FractalParams& p, float octaves, Vec2 cen
       const Lanes2<float> n = p.basis == Basis::simplex
                                   ? basis2<Basis::simplex, ScalarLanes>(o, x, y)
                                   : basis2<Basis::gradient, ScalarLanes>(o, x, y);
-      const double g = std::hypot(static_cast<double>(n.dx), static_cast<double>(n.dy)) + kSlack;
+      const double g =
+          std::sqrt(static_cast<double>(n.dx) * n.dx + static_cast<double>(n.dy) * n.dy) + kSlack;
       // Taylor: |∇η| ≤ |∇η(c)| + M₂ρ and |η − η(c)| ≤ |∇η(c)|ρ + M₂ρ²/2, never above the global.
       const double spread = std::min(lambda * rho, g * rho + 0.5 * hessian * rho * rho) + kSlack;
       const double value = n.value;
       r = {{std::max(-1.0, value - spread), std::min(1.0, value + spread)},
            std::min(lambda, g + hessian * rho)};
-      if (g + hessian * rho < lambda) {
+      if (fixed && g + hessian * rho < lambda) {
         taylor_x += slope_scale * n.dx;
         taylor_y += slope_scale * n.dy;
         remainder += slope_scale * (hessian * rho + kSlack);
-        taylor_value += static_cast<double>(o.amplitude) * value;
-        curvature +=
-            std::abs(static_cast<double>(o.amplitude)) * (0.5 * hessian * rho * rho + kSlack);
+        taylor_value += amplitude * value;
+        curvature += std::abs(amplitude) * (0.5 * hessian * rho * rho + kSlack);
         continue;
       }
     }
-    remainder += slope_scale * lambda;
-    const Range term = scaled(r.value, o.amplitude);
+    remainder += slope_scale * r.slope;
+    const Range term = product(r.value, {least_amplitude(i), amplitude});
     rest = {rest.lo + term.lo, rest.hi + term.hi};
   }
-  const FractalBounds local = bounds_of(plan, 0.0, [&](const Octave& o) {
+  const FractalBounds local = bounds_of(plan, least.data(), 0.0, [&](const Octave& o) {
     return reach[static_cast<std::size_t>(&o - plan.octave.data())];
   });
   double slope = local.lipschitz;
   Range value = local.value;
   if (p.kind == Fractal::fbm) {
-    slope = std::min(slope, std::hypot(taylor_x, taylor_y) + remainder);
+    slope = std::min(slope, std::sqrt(taylor_x * taylor_x + taylor_y * taylor_y) + remainder);
     // F_T(p) − F_T(c) ≤ |∇F_T(c)| r + Σ a_i M₂ ρ_i²/2 for the Taylor octaves T.
-    const double spread = std::hypot(taylor_x, taylor_y) * radius + curvature;
+    const double spread = std::sqrt(taylor_x * taylor_x + taylor_y * taylor_y) * radius + curvature;
     value.lo = std::max(value.lo, taylor_value - spread + rest.lo);
     value.hi = std::min(value.hi, taylor_value + spread + rest.hi);
   }
-  // Never looser than the global bounds (the Taylor terms can only cut).
-  return {{std::max(round_down(value.lo), round_down(global.value.lo)),
-           std::min(round_up(value.hi), round_up(global.value.hi))},
-          std::min(round_up(slope), round_up(global.lipschitz))};
+  // Never looser than the global bounds: every octave's range and slope lie within the basis'
+  // own, and the bounds only grow with them.
+  return {{round_down(value.lo), round_up(value.hi)}, round_up(slope)};
 }
 
 float hessian_bound(Basis basis, int dimensions) {

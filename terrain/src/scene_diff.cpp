@@ -109,7 +109,7 @@ struct SceneChange::Data {
     if (!q.intersects(d.reach)) return false;
     const Node& node = *d.before;
     if (node.type->category == NodeCategory::warp) {
-      const Box2 inner = padded(node.type->kernels.warp_box(node.params.pool.data(), q));
+      const Box2 inner = padded(node.type->kernels.warp_box(node.params.pool.data(), {q, spacing}));
       return differs(d.slots.front().diff, inner, inner_spacing(node, spacing));
     }
     for (const Slot& slot : d.slots) {
@@ -132,7 +132,7 @@ struct SceneChange::Data {
         return std::any_of(node->children.begin(), node->children.end(),
                            [&](const NodePtr& c) { return may_weigh(c.get(), q, spacing); });
       case NodeCategory::warp:
-        return may_weigh(node->children.front().get(), padded(k.warp_box(params, q)),
+        return may_weigh(node->children.front().get(), padded(k.warp_box(params, {q, spacing})),
                          inner_spacing(*node, spacing));
       case NodeCategory::primitive:
         return k.leaf_bounds(params, {q, spacing}).weight.hi > 0.0f;
@@ -221,7 +221,7 @@ class DiffBuilder {
         // for every warp there is; the general case is kept for safety.
         const Node& child = *n.children.front();
         const NodeBounds& child_global = global_bounds(child);
-        const BoundsQuery inner{k.warp_box(params, Box2::everywhere()), inner_spacing(n, 0.0f)};
+        const BoundsQuery inner{k.warp_box(params, {}), inner_spacing(n, 0.0f)};
         const bool plane = same_box(inner.box, Box2::everywhere()) && inner.spacing == 0.0f;
         b = k.warp_bounds(params, {}, plane ? child_global : tree_bounds(child, inner));
         break;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <thread>
 
@@ -48,9 +49,13 @@ Vec3 normalise(Vec3 v) {
 
 LipschitzGrid::LipschitzGrid(Evaluator& evaluator, const Box2& area, int cells)
     : area_(area), cells_(cells), spacings_{0.0f, 1.0f, 4.0f, 16.0f, 64.0f} {
-  global_ = evaluator.global_bounds().elevation_lipschitz;
   const Vec2 size = area.size();
-  for (float spacing : spacings_) {
+  for (std::size_t k = 0; k < spacings_.size(); ++k) {
+    // Level k serves every spacing up to the next level's (the last: every coarser one), so its
+    // bounds are asked for that whole band.
+    const float spacing = spacings_[k];
+    const float coarsest =
+        k + 1 < spacings_.size() ? spacings_[k + 1] : std::numeric_limits<float>::max();
     std::vector<float>& level = levels_.emplace_back(static_cast<std::size_t>(cells * cells));
     for (int j = 0; j < cells; ++j) {
       for (int i = 0; i < cells; ++i) {
@@ -59,17 +64,22 @@ LipschitzGrid::LipschitzGrid(Evaluator& evaluator, const Box2& area, int cells)
         const Vec2 hi{area.lo.x + size.x * static_cast<float>(i + 1) / static_cast<float>(cells),
                       area.lo.y + size.y * static_cast<float>(j + 1) / static_cast<float>(cells)};
         level[static_cast<std::size_t>(j * cells + i)] =
-            evaluator.bounds({Box2{lo, hi}.expanded(1e-3f * std::max(size.x, size.y)), spacing})
+            evaluator
+                .bounds(
+                    {Box2{lo, hi}.expanded(1e-3f * std::max(size.x, size.y)), spacing, coarsest})
                 .elevation_lipschitz;
       }
     }
+    for (float b : level) global_ = std::max(global_, b);
   }
 }
 
-float LipschitzGrid::bound(const Box2& box, float spacing) const {
+float LipschitzGrid::bound(const Box2& box, float spacing, float far_spacing) const {
   if (!area_.intersects(box)) return 0.0f;  // outside the traced area nothing is hit
   std::size_t level = 0;
   while (level + 1 < spacings_.size() && spacings_[level + 1] <= spacing) ++level;
+  std::size_t last = level;
+  while (last + 1 < spacings_.size() && spacings_[last + 1] < far_spacing) ++last;
   const Vec2 size = area_.size();
   auto cell = [&](float v, float lo, float extent) {
     const float c = (v - lo) / extent * static_cast<float>(cells_);
@@ -77,12 +87,16 @@ float LipschitzGrid::bound(const Box2& box, float spacing) const {
   };
   const int i0 = cell(box.lo.x, area_.lo.x, size.x), i1 = cell(box.hi.x, area_.lo.x, size.x);
   const int j0 = cell(box.lo.y, area_.lo.y, size.y), j1 = cell(box.hi.y, area_.lo.y, size.y);
-  if ((i1 - i0 + 1) * (j1 - j0 + 1) > cells_ * cells_ / 4) return global_;
+  // Past a quarter of a level's cells the lookups cost more than the global bound loses.
+  const auto levels = static_cast<int>(last - level + 1);
+  if ((i1 - i0 + 1) * (j1 - j0 + 1) * levels > cells_ * cells_ / 4) return global_;
   float worst = 0.0f;
-  const std::vector<float>& grid = levels_[level];
-  for (int j = j0; j <= j1; ++j) {
-    for (int i = i0; i <= i1; ++i)
-      worst = std::max(worst, grid[static_cast<std::size_t>(j * cells_ + i)]);
+  for (std::size_t k = level; k <= last; ++k) {
+    const std::vector<float>& grid = levels_[k];
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i)
+        worst = std::max(worst, grid[static_cast<std::size_t>(j * cells_ + i)]);
+    }
   }
   return worst;
 }
@@ -112,7 +126,13 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
   if (span.empty()) return result;
   const float horizontal =
       std::sqrt(ray.direction.x * ray.direction.x + ray.direction.y * ray.direction.y);
-  const float global_lambda = evaluator.global_bounds().elevation_lipschitz;
+  // The global bound at every spacing the ray may sample (the grid's, which GPU tracers share).
+  const float global_lambda =
+      options.bounds != nullptr ? options.bounds->global()
+      : options.lod_per_metre > 0.0f
+          ? evaluator.bounds({Box2::everywhere(), 0.0f, std::numeric_limits<float>::max()})
+                .elevation_lipschitz
+          : evaluator.global_bounds().elevation_lipschitz;
   float t = span.lo;
   float delta = options.initial_step;
   float last_lambda = global_lambda;
@@ -135,11 +155,15 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
     float limit = std::numeric_limits<float>::infinity();
     last_lambda = lambda;
     if (options.accelerated) {
-      // Local bound over the candidate segment [t, t + δ] (its horizontal footprint).
-      const Vec3 q = at(ray, t + delta);
+      // Local bound over the candidate segment [t, t + δ] (its horizontal footprint) at the
+      // spacings sampled along it.
+      const float ahead = t + delta;
+      const float far_spacing = options.lod_per_metre * ahead;
+      const Vec3 q = at(ray, ahead);
       const Box2 box = Box2::of_point({p.x, p.y}).with({q.x, q.y});
-      lambda = options.bounds != nullptr ? options.bounds->bound(box, spacing)
-                                         : evaluator.bounds({box, spacing}).elevation_lipschitz;
+      lambda = options.bounds != nullptr
+                   ? options.bounds->bound(box, spacing, far_spacing)
+                   : evaluator.bounds({box, spacing, far_spacing}).elevation_lipschitz;
       last_lambda = lambda;
       limit = delta;
     }

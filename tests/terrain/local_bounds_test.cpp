@@ -7,6 +7,7 @@
 
 #include "field_checks.hpp"
 #include "terrain/node.hpp"
+#include "terrain/sphere_trace.hpp"
 
 namespace terrain {
 namespace {
@@ -108,15 +109,18 @@ TEST(WarpBounds, ASmallBoxStaysSmallInTheChildFrame) {
   const NodeKernels& k = warp.type->kernels;
   const float* params = warp.params.pool.data();
   std::mt19937 rng(8);
-  for (int i = 0; i < 200; ++i) {
+  for (int i = 0; i < 300; ++i) {
     const Vec2 c = testing::random_point(rng, Box2::around({0, 0}, 1500));
     const Box2 box = Box2::around(c, 0.5f);
-    const Box2 moved = k.warp_box(params, box);
+    // Full detail, and levels of detail that drop one and two of the three octaves.
+    const float spacing = i % 3 == 0 ? 0.0f : i % 3 == 1 ? 300.0f : 700.0f;
+    const Box2 moved = k.warp_box(params, {box, spacing});
     // Before: grown by the displacement's whole range, 2 × 70 m.
     EXPECT_LT(moved.size().x, 1.5f);
     EXPECT_LT(moved.size().y, 1.5f);
-    // Sound: the warped points of the box lie in the moved box.
+    // Sound: the warped points of the box, at that level of detail, lie in the moved box.
     PointBlock in;
+    in.spacing = spacing;
     in.count = 16;
     for (int j = 0; j < 16; ++j) {
       const Vec2 p = testing::random_point(rng, box);
@@ -128,7 +132,8 @@ TEST(WarpBounds, ASmallBoxStaysSmallInTheChildFrame) {
     WarpJacobian jacobian{};
     k.warp_points(params, in, out, jacobian);
     for (int j = 0; j < 16; ++j) {
-      ASSERT_TRUE(moved.contains({out.x[j], out.y[j]})) << "warped point outside the moved box";
+      ASSERT_TRUE(moved.contains({out.x[j], out.y[j]}))
+          << "warped point outside the moved box at spacing " << spacing;
     }
   }
   // The stretch over a small box is the displacement's slope there, below its worst case.
@@ -154,6 +159,57 @@ TEST(CurveBounds, WeightSlopeBeyondTheFalloffComesFromTheDistanceThere) {
   const float mid = e.bounds({Box2::around({0, 40.0f}, 0.4f), 0.0f}).elevation_lipschitz;
   EXPECT_LT(near, 0.05f * mid) << "near the rim " << near << ", mid-fall-off " << mid;
   testing::expect_bounds_hold(scene, 60, 30);
+}
+
+// Bounds over a box follow the slope there, which need not shrink with the level of detail: where
+// two octaves' slopes cancel, dropping the finer one leaves a steeper field. A query over a band
+// of spacings holds across it; the bound at the band's finest spacing alone does not.
+TEST(BandOfSpacings, BoundsHoldAtEverySpacingOfTheBand) {
+  const Scene scene = parse_or_die(R"({"root": {"type": "disc", "center": [0, 0],
+    "radius": 5000, "elevation": 0, "noise": {"kind": "fbm", "amplitude": 1, "wavelength": 8,
+    "octaves": 2, "hurst": 0.05, "seed": 3}}})");
+  const Program program = testing::compile_or_die(scene);
+  Evaluator e(program);
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<float> spacing_in_band(1.0f, 3.9f);
+  int broken_by_the_finest_alone = 0;
+  for (int k = 0; k < 4000; ++k) {
+    const Box2 box = Box2::around(testing::random_point(rng, Box2::around({0, 0}, 200)), 0.05f);
+    const float band = e.bounds({box, 1.0f, 3.9f}).elevation_lipschitz;
+    const float finest = e.bounds({box, 1.0f}).elevation_lipschitz;
+    const float spacing = spacing_in_band(rng);
+    const float slope = length(e.sample(box.center(), spacing).elevation_gradient);
+    ASSERT_LE(slope, band * 1.001f + 1e-5f) << "spacing " << spacing;
+    if (slope > finest * 1.001f + 1e-5f) ++broken_by_the_finest_alone;
+  }
+  EXPECT_GT(broken_by_the_finest_alone, 0);
+}
+
+// Each level of a tracer's bounds grid serves a band of spacings (up to the next level's; the
+// last, every coarser one), and its bounds must hold across the band: at random points and
+// spacings of every example with level-of-detail nodes, warps and noise.
+TEST(LipschitzGrid, EachLevelHoldsAcrossItsBandOfSpacings) {
+  for (const char* name : {"butte", "mountain-range", "hills-river"}) {
+    const Result<Scene> loaded =
+        load_scene_file(std::string(TERRAIN_SOURCE_DIR) + "/config/scenes/" + name + ".json");
+    ASSERT_TRUE(loaded.ok());
+    const Scene& scene = *loaded;
+    const Program program = testing::compile_or_die(scene);
+    Evaluator e(program);
+    const Box2 area = scene.area();
+    const LipschitzGrid grid(e, area, 16);
+    std::mt19937 rng(12);
+    std::uniform_real_distribution<float> log_spacing(std::log(0.05f), std::log(400.0f));
+    for (int k = 0; k < 3000; ++k) {
+      const Vec2 p = testing::random_point(rng, area);
+      const float spacing = std::exp(log_spacing(rng));
+      const float bound = grid.bound(Box2::of_point(p), spacing, spacing);
+      const FieldSample s = e.sample(p, spacing);
+      ASSERT_LE(length(s.elevation_gradient), bound * 1.001f + 1e-4f)
+          << name << " at (" << p.x << ", " << p.y << "), spacing " << spacing;
+      ASSERT_LE(bound, grid.global());
+    }
+  }
 }
 
 // The warped kind's constants act on the height sum in units of the amplitude (Schneider's

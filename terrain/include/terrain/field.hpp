@@ -55,11 +55,15 @@ struct NodeBounds {
   float weight_lipschitz = 0.0f;     ///< bound of |∇α| over the query region
 };
 
-/// A region query: bounds over `box` when sampled at `spacing` metres (coarser spacing drops
-/// octaves, so bounds shrink with the level of detail).
+/// A region query: bounds over `box` when sampled at any spacing from `spacing` to
+/// `coarsest_spacing` metres (coarser spacing drops octaves). Bounds over a box follow what holds
+/// there, so they need not shrink with the level of detail: a tracer that reuses one bound over a
+/// band of levels (LipschitzGrid) asks for the whole band.
 struct BoundsQuery {
   Box2 box = Box2::everywhere();
   float spacing = 0.0f;
+  float coarsest_spacing = 0.0f;  ///< below `spacing`: `spacing` alone
+  float coarsest() const { return std::max(spacing, coarsest_spacing); }
 };
 
 /// Wyvill's C1 fall-off g(d) = (1 − (d/r)²)³ for d < r, else 0 (Génevaux §4.1).

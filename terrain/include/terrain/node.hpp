@@ -37,6 +37,11 @@ struct WarpJacobian {
 
 /// CPU kernels of a node type. Each reads its parameters from the program's float pool. Only the
 /// members of the node's category are set.
+/// varies_with_spacing of primitives whose field never depends on the sample spacing.
+inline bool never_varies_with_spacing(const float*, float, float) {
+  return false;
+}
+
 struct NodeKernels {
   // primitive
   void (*leaf)(const float* params, const PointBlock& points, FieldBlock& out) = nullptr;
@@ -50,6 +55,9 @@ struct NodeKernels {
   /// Optional: a bound of |∇α| within `radius` of a point where α = `weight`, for primitives
   /// whose weight falls off with a distance that leaf_bounds cannot bound over a box.
   float (*weight_lipschitz_near)(const float* params, float weight, float radius) = nullptr;
+  /// Optional: whether the leaf's field may differ between two sample spacings (bounds over a
+  /// band of spacings then skip the sample at the box centre). Without it, both are sampled.
+  bool (*varies_with_spacing)(const float* params, float fine, float coarse) = nullptr;
   // binary: `out` may alias `a`
   void (*combine)(const float* params, const PointBlock& points, const FieldBlock& a,
                   const FieldBlock& b, FieldBlock& out) = nullptr;
@@ -60,7 +68,8 @@ struct NodeKernels {
                       WarpJacobian& jacobian) = nullptr;
   void (*warp_field)(const float* params, int count, const WarpJacobian& jacobian,
                      FieldBlock& field) = nullptr;
-  Box2 (*warp_box)(const float* params, const Box2& box) = nullptr;  ///< parent box → child box
+  /// The child-frame box holding the points of the parent's query box, at its level of detail.
+  Box2 (*warp_box)(const float* params, const BoundsQuery& query) = nullptr;
   /// The node's bounds over the parent's `query` from its child's (over warp_box of it).
   NodeBounds (*warp_bounds)(const float* params, const BoundsQuery& query,
                             const NodeBounds& child) = nullptr;

@@ -127,15 +127,22 @@ Sample3 fractal3(const FractalParams& p, float x, float y, float z, float octave
 Interval fractal_range(const FractalParams& p, float octaves);
 float fractal_lipschitz(const FractalParams& p, float octaves, float radius);
 /// Bounds of fractal2 over the points within `radius` metres of `centre` (the fractal's own
-/// coordinates): each octave's range and slope come from its value and gradient at the centre,
-/// widened by the basis' Hessian bound, so an octave whose wavelength is long beside the region
-/// contributes the slope it has there rather than its worst case. Never looser than the global
-/// bounds; the warped kind gets those (its slope depends on the whole path of the sum).
+/// coordinates), at every octave count in `octaves` (a tracer reuses one bound over a band of
+/// levels of detail): each octave's range and slope come from its value and gradient at the
+/// centre, widened by the basis' Hessian bound, so an octave whose wavelength is long beside the
+/// region contributes the slope it has there rather than its worst case. Never looser than the
+/// global bounds; the warped kind gets those (its slope depends on the whole path of the sum),
+/// for |p| ≤ |centre| + radius.
 struct RegionBounds {
   Interval value;
   float lipschitz = 0.0f;
 };
-RegionBounds fractal_bounds_near(const FractalParams& p, float octaves, Vec2 centre, float radius);
+RegionBounds fractal_bounds_near(const FractalParams& p, Interval octaves, Vec2 centre,
+                                 float radius);
+inline RegionBounds fractal_bounds_near(const FractalParams& p, float octaves, Vec2 centre,
+                                        float radius) {
+  return fractal_bounds_near(p, Interval::point(octaves), centre, radius);
+}
 
 /// Proven bound of the Hessian's norm of a single-octave basis at unit frequency:
 /// |∇η(a) − ∇η(b)| ≤ hessian_bound · |a − b| (2D only; infinity otherwise).

@@ -25,11 +25,16 @@ struct Ray {
 /// Local Lipschitz bounds precomputed on a grid of cells over the traced area, at a few levels
 /// of detail: a lookup replaces a walk of the program at every step (the paper's "standard space
 /// partitioning", §7.2). Bounds are maxima over the cells a segment touches, so they stay safe.
+/// Level k holds bounds for every spacing from its own to the next level's (the last: any
+/// coarser one), since local bounds need not shrink with the level of detail.
 class LipschitzGrid {
  public:
   LipschitzGrid(Evaluator& evaluator, const Box2& area, int cells = 64);
-  /// A bound of |∇f| over `box` at sample spacing `spacing` (or coarser detail).
-  float bound(const Box2& box, float spacing) const;
+  /// A bound of |∇f| over `box` at every sample spacing from `spacing` to `far_spacing` (the
+  /// spacings along a tracer's candidate segment): the levels covering that band.
+  float bound(const Box2& box, float spacing, float far_spacing) const;
+  /// A bound of |∇f| over the traced area at every spacing (the largest cell of any level).
+  float global() const { return global_; }
 
   /// The grid as one float array, for GPU tracers that repeat bound() (gpu/glsl/trace.glsl):
   /// [cells, levels L, global bound, area lo.x, lo.y, hi.x, hi.y, spacings × L, then L levels of
@@ -40,7 +45,7 @@ class LipschitzGrid {
   Box2 area_;
   int cells_;
   float global_ = 0.0f;
-  std::vector<float> spacings_;             // ascending; level k is valid for spacing ≥ it
+  std::vector<float> spacings_;             // ascending; level k: from it to the next
   std::vector<std::vector<float>> levels_;  // cells_ × cells_ bounds per level
 };
 

@@ -157,7 +157,9 @@ const NodeType& contour_node_type() {
           "a lake, crater or plateau: radial profiles around a centre inside a closed "
           "contour",
       .parse = parse_contour,
-      .kernels = {.leaf = contour_leaf, .leaf_bounds = contour_bounds},
+      .kernels = {.leaf = contour_leaf,
+                  .leaf_bounds = contour_bounds,
+                  .varies_with_spacing = never_varies_with_spacing},
       .example_json = R"({"type": "contour", "center": [0, 0], "elevation": 120, "orientation": 15,
  "radii": [900, 1100, 1000, 1250, 950, 800, 1000, 1150],
  "profiles": [{"preset": "lake", "depth": 25, "shore_width": 0.25},

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "field_reader.hpp"
 #include "nodes/fractal_params.hpp"
@@ -183,22 +184,37 @@ NodeBounds disc_bounds(const float* params, const BoundsQuery& query) {
     b.elevation = Interval::point(params[kElevation]);
     return b;
   }
-  const float octaves = noise::visible_octaves(fractal, query.spacing);
-  noise::RegionBounds noise_bounds{noise::fractal_range(fractal, octaves),
-                                   noise::fractal_lipschitz(fractal, octaves, radius)};
-  if (query.box.is_finite() && fractal.kind != noise::Fractal::warped) {
-    // Over a box, each octave's own slope there (the noise is evaluated at offsets from c).
-    // The half diagonal, widened by the rounding of the offsets (the box's and the kernel's).
+  // The octave counts of the spacings asked for (fewer at coarser ones).
+  const Interval octaves{noise::visible_octaves(fractal, query.coarsest()),
+                         noise::visible_octaves(fractal, query.spacing)};
+  noise::RegionBounds noise_bounds{noise::fractal_range(fractal, octaves.hi),
+                                   noise::fractal_lipschitz(fractal, octaves.hi, radius)};
+  if (fractal.kind != noise::Fractal::warped) {
+    // Over a box, each octave's own slope there (the noise is evaluated at offsets from c); over
+    // an unbounded one, the global bounds at every octave count asked for.
     const Box2& q = query.box;
-    const float rounding = 2e-7f * (std::abs(q.lo.x) + std::abs(q.hi.x) + std::abs(q.lo.y) +
-                                    std::abs(q.hi.y) + std::abs(c.x) + std::abs(c.y));
-    const float reach = 0.5f * length(q.size()) * 1.000001f + rounding;
-    noise_bounds = noise::fractal_bounds_near(fractal, octaves, query.box.center() - c, reach);
+    const bool finite = q.is_finite();
+    // The half diagonal, widened by the rounding of the offsets (the box's and the kernel's).
+    const float rounding = finite
+                               ? 2e-7f * (std::abs(q.lo.x) + std::abs(q.hi.x) + std::abs(q.lo.y) +
+                                          std::abs(q.hi.y) + std::abs(c.x) + std::abs(c.y))
+                               : 0.0f;
+    const float reach = finite ? 0.5f * length(q.size()) * 1.000001f + rounding
+                               : std::numeric_limits<float>::infinity();
+    noise_bounds =
+        noise::fractal_bounds_near(fractal, octaves, finite ? q.center() - c : Vec2{}, reach);
   }
   b.elevation = {noise_bounds.value.lo + params[kElevation],
                  noise_bounds.value.hi + params[kElevation]};
   b.elevation_lipschitz = noise_bounds.lipschitz;
   return b;
+}
+
+// Only the noise depends on the spacing, through its visible octave count.
+bool disc_varies_with_spacing(const float* params, float fine, float coarse) {
+  const noise::FractalParams fractal = unpack_fractal(params + kFractal);
+  return fractal.amplitude != 0.0f &&
+         noise::visible_octaves(fractal, fine) != noise::visible_octaves(fractal, coarse);
 }
 
 }  // namespace
@@ -223,7 +239,8 @@ const NodeType& disc_node_type() {
       .parse = parse_disc,
       .kernels = {.leaf = disc_leaf,
                   .leaf_bounds = disc_bounds,
-                  .leaf_where_weighted = disc_leaf_where_weighted},
+                  .leaf_where_weighted = disc_leaf_where_weighted,
+                  .varies_with_spacing = disc_varies_with_spacing},
       .example_json = R"({"type": "disc", "center": [0, 0], "radius": 2000, "elevation": 300,
  "noise": {"kind": "ridged", "amplitude": 400, "wavelength": 1500, "octaves": 8, "seed": 7}})",
       .loop_iterations = disc_loop_iterations,

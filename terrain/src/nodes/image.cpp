@@ -187,7 +187,9 @@ const NodeType& image_node_type() {
           "a heightfield image (16-bit PNG, float TIFF, EXR) on a convex quadrangle or "
           "along a curve",
       .parse = parse_image,
-      .kernels = {.leaf = image_leaf, .leaf_bounds = image_bounds},
+      .kernels = {.leaf = image_leaf,
+                  .leaf_bounds = image_bounds,
+                  .varies_with_spacing = never_varies_with_spacing},
       .example_json = R"({"type": "image", "image": "mountain.png",
  "corners": [[-900, 800], [1000, 1000], [800, -900], [-1000, -800]],
  "elevation": 50, "height_scale": 600, "margin": 0.1})",

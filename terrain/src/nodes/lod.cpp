@@ -36,9 +36,8 @@ void lod_combine(const float* params, const PointBlock& points, const FieldBlock
   }
 }
 
-NodeBounds lod_bounds(const float* params, const BoundsQuery& query, const NodeBounds& a,
-                      const NodeBounds& b) {
-  const float t = lod_blend_factor(params, query.spacing);
+// The mix of the two children's bounds at one blend factor.
+NodeBounds mixed(float t, const NodeBounds& a, const NodeBounds& b) {
   if (t <= 0.0f) return a;
   if (t >= 1.0f) return b;
   const float s = 1.0f - t;
@@ -49,6 +48,23 @@ NodeBounds lod_bounds(const float* params, const BoundsQuery& query, const NodeB
   out.weight = {s * a.weight.lo + t * b.weight.lo, s * a.weight.hi + t * b.weight.hi};
   out.elevation_lipschitz = s * a.elevation_lipschitz + t * b.elevation_lipschitz;
   out.weight_lipschitz = s * a.weight_lipschitz + t * b.weight_lipschitz;
+  return out;
+}
+
+// f = (1 − t)A + tB with t a function of the spacing alone: over a band of spacings the bounds
+// are linear in t, so the mixes at the band's two ends hold between them.
+NodeBounds lod_bounds(const float* params, const BoundsQuery& query, const NodeBounds& a,
+                      const NodeBounds& b) {
+  const float fine = lod_blend_factor(params, query.spacing);
+  const float coarse = lod_blend_factor(params, query.coarsest());
+  if (fine == coarse) return mixed(fine, a, b);
+  const NodeBounds x = mixed(fine, a, b), y = mixed(coarse, a, b);
+  NodeBounds out;
+  out.support = x.support.united(y.support);
+  out.elevation = x.elevation.hull(y.elevation);
+  out.weight = x.weight.hull(y.weight);
+  out.elevation_lipschitz = std::max(x.elevation_lipschitz, y.elevation_lipschitz);
+  out.weight_lipschitz = std::max(x.weight_lipschitz, y.weight_lipschitz);
   return out;
 }
 

@@ -111,8 +111,8 @@ float transform_spacing(const float* params, float spacing) {
   return spacing * params[14];
 }
 
-Box2 transform_box(const float* params, const Box2& box) {
-  return map_box(params, box);
+Box2 transform_box(const float* params, const BoundsQuery& query) {
+  return map_box(params, query.box);
 }
 
 NodeBounds transform_bounds(const float* params, const BoundsQuery&, const NodeBounds& child) {

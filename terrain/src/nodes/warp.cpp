@@ -1,6 +1,7 @@
 #include "nodes/warp.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include "field_reader.hpp"
 #include "nodes/fractal_params.hpp"
@@ -21,13 +22,15 @@ float displacement_bound(const noise::FractalParams& p, float octaves) {
   return std::max(std::abs(r.lo), std::abs(r.hi));
 }
 
-// Bounds of one displacement component over `box`: its own slope and range there when the box
-// is finite (a box small beside the noise's wavelength moves and stretches little), else the
-// global ones.
-noise::RegionBounds component_bounds(const noise::FractalParams& p, const Box2& box) {
-  const auto octaves = static_cast<float>(p.octaves);
+// Bounds of one displacement component over the query box at its levels of detail (the octaves
+// fractal2_at_spacing evaluates there): its own slope and range there when the box is finite (a
+// box small beside the noise's wavelength moves and stretches little), else the global ones.
+noise::RegionBounds component_bounds(const noise::FractalParams& p, const BoundsQuery& query) {
+  const Interval octaves{noise::visible_octaves(p, query.coarsest()),
+                         noise::visible_octaves(p, query.spacing)};
+  const Box2& box = query.box;
   if (!box.is_finite()) {
-    return {noise::fractal_range(p, octaves), noise::fractal_lipschitz(p, octaves, 0.0f)};
+    return noise::fractal_bounds_near(p, octaves, {}, std::numeric_limits<float>::infinity());
   }
   const float rounding =
       2e-7f * (std::abs(box.lo.x) + std::abs(box.hi.x) + std::abs(box.lo.y) + std::abs(box.hi.y));
@@ -97,10 +100,11 @@ TERRAIN_SIMD_CLONES void warp_field(const float*, int count, const WarpJacobian&
 }
 
 // The child sees q = p + d(p): the box moved by the displacement's range over it.
-Box2 warp_box(const float* params, const Box2& box) {
+Box2 warp_box(const float* params, const BoundsQuery& query) {
+  const Box2& box = query.box;
   if (box.empty()) return box;
-  const noise::RegionBounds dx = component_bounds(component(params, 1), box);
-  const noise::RegionBounds dy = component_bounds(component(params, 2), box);
+  const noise::RegionBounds dx = component_bounds(component(params, 1), query);
+  const noise::RegionBounds dy = component_bounds(component(params, 2), query);
   if (!box.is_finite()) {
     const float reach = std::max({std::abs(dx.value.lo), std::abs(dx.value.hi),
                                   std::abs(dy.value.lo), std::abs(dy.value.hi)});
@@ -121,8 +125,8 @@ NodeBounds warp_bounds(const float* params, const BoundsQuery& query, const Node
   NodeBounds out = child;
   out.support = child.support.empty() ? child.support
                                       : child.support.expanded(displacement_bound(p, octaves));
-  const float lx = component_bounds(p, query.box).lipschitz;
-  const float ly = component_bounds(component(params, 2), query.box).lipschitz;
+  const float lx = component_bounds(p, query).lipschitz;
+  const float ly = component_bounds(component(params, 2), query).lipschitz;
   const float stretch = 1.0f + std::sqrt(lx * lx + ly * ly) * 1.000001f;
   out.elevation_lipschitz = child.elevation_lipschitz * stretch;
   out.weight_lipschitz = child.weight_lipschitz * stretch;
