@@ -116,7 +116,8 @@ class NginxProcess {
 struct LoadReport {
   long requests = 0;
   long non_2xx = 0;
-  long socket_errors = 0;
+  long socket_errors = 0;  ///< connect, read, write and timeout errors together
+  long read_errors = 0;    ///< responses cut off (the connection closed mid-response)
   std::string text;
 };
 
@@ -132,6 +133,7 @@ LoadReport parse_wrk(const std::string& text) {
           text, m,
           std::regex(R"(Socket errors: connect (\d+), read (\d+), write (\d+), timeout (\d+))"))) {
     r.socket_errors = std::stol(m[1]) + std::stol(m[2]) + std::stol(m[3]) + std::stol(m[4]);
+    r.read_errors = std::stol(m[2]);
   }
   return r;
 }
@@ -161,7 +163,8 @@ class Cluster : public ::testing::Test {
   std::thread load(const std::string& target, int seconds, LoadReport& report,
                    const std::string& lua = "") {
     const fs::path out = dir_.path() / ("wrk-" + std::to_string(loads_++) + ".txt");
-    std::vector<std::string> args = {"wrk", "-t2", "-c16", "-d" + std::to_string(seconds) + "s"};
+    std::vector<std::string> args = {"wrk", "-t2", "-c" + std::to_string(kLoadConnections),
+                                     "-d" + std::to_string(seconds) + "s"};
     if (!lua.empty()) {
       const fs::path script = dir_.path() / "load.lua";
       std::ofstream(script) << lua;
@@ -174,6 +177,7 @@ class Cluster : public ::testing::Test {
     });
   }
 
+  static constexpr int kLoadConnections = 16;  ///< wrk's connections to nginx
   TempDir dir_{"cluster"};
   std::unique_ptr<RedisProcess> redis_;
   std::unique_ptr<ServerProcess> a_, b_;
@@ -277,7 +281,12 @@ TEST_F(Cluster, KillingAReplicaUnderLoadLosesNoAcknowledgedVersion) {
   wrk.join();
   EXPECT_GT(report.requests, 200) << report.text;
   EXPECT_EQ(report.non_2xx, 0) << report.text;
-  EXPECT_EQ(report.socket_errors, 0) << report.text;
+  // nginx retries a read on the other replica until it has begun sending the response; a
+  // response the SIGKILL cuts off mid-body can only be cut off (the client sees its connection
+  // close). So at most the reads in flight at the kill, one per connection, may fail, and only
+  // that way: none may be refused, time out or fail later (about one run in seven cut one).
+  EXPECT_EQ(report.socket_errors - report.read_errors, 0) << report.text;
+  EXPECT_LE(report.read_errors, kLoadConnections) << report.text;
   EXPECT_GT(before_kill, 0u) << "no write was acknowledged before the kill";
   ASSERT_GE(acknowledged.size(), before_kill + 4) << "writes after the kill were not acknowledged";
   const json versions = body_json(get(b_->port(), "/api/v1/scenes/hills-river/versions"));
