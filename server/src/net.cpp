@@ -669,6 +669,12 @@ struct HttpServer::State {
           response = std::move(*answer);
           break;
         }
+        // Prepared, but its client hung up meanwhile (run_deferred counted it): the work the
+        // request was loaded for is not started at all.
+        if (work->abandoned->load()) {
+          response = Response{http::status::service_unavailable, 11};
+          break;
+        }
         // Prepared (its version loaded): handled again, now without loading. Twice at most, so
         // that a version evicted meanwhile cannot keep a request going round.
         if (pass == 1) {
