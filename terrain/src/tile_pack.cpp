@@ -449,24 +449,23 @@ Result<PackReport> run_export(TileSink& sink, const PackPlan& plan, const MakeTi
       ++report.made;
       ++progress.done;
       const bool due = in_transaction >= std::max<std::uint64_t>(options.commit_every, 1) ||
-                       std::chrono::steady_clock::now() - last_commit > std::chrono::seconds(5);
+                       std::chrono::steady_clock::now() - last_commit > options.commit_interval;
       if (due) {
         if (Status s = sink.commit(); !s) return finish(s.error());
-        if (options.stop_after > 0 && report.made >= options.stop_after) {
-          return finish(Error{
-              "stopped after " + std::to_string(report.made) + " tiles (PackOptions::stop_after)",
-              ""});
-        }
-        if (Status s = sink.begin(); !s) return finish(s.error());
         in_transaction = 0;
+      }
+      // Checked per tile, not per batch: a batch may hold tiles past the stop.
+      if (options.stop_after > 0 && report.made >= options.stop_after) {
+        if (in_transaction > 0) sink.abandon();
+        return finish(Error{"stopped after " + std::to_string(report.made) + " tiles" +
+                                (in_transaction > 0 ? ", the last ones uncommitted" : "") +
+                                " (PackOptions::stop_after)",
+                            ""});
+      }
+      if (due) {
+        if (Status s = sink.begin(); !s) return finish(s.error());
         last_commit = std::chrono::steady_clock::now();
       }
-    }
-    if (options.stop_after > 0 && report.made >= options.stop_after) {
-      sink.abandon();
-      return finish(Error{"stopped after " + std::to_string(report.made) +
-                              " tiles, the last ones uncommitted (PackOptions::stop_after)",
-                          ""});
     }
     tell(false);
     if (done && batch.empty()) break;

@@ -420,6 +420,7 @@ TEST(PmtilesPack, ResumesAnInterruptedExportToTheSameBytes) {
   write_pack(dir.file("whole.pmtiles"), plan, synthetic_factory(2)).value();
   PackOptions interrupted;
   interrupted.commit_every = 100;
+  interrupted.commit_interval = std::chrono::hours(1);
   interrupted.stop_after = 1050;  // 1000 committed, 50 left in an abandoned transaction
   interrupted.threads = 2;
   const std::string path = dir.file("resumed.pmtiles");
@@ -444,6 +445,7 @@ TEST(MbtilesPack, ResumesAnInterruptedExportWithTheSameTiles) {
   const auto factory = product_factory(source, plan.scheme, plan.format);
   PackOptions interrupted;
   interrupted.commit_every = 2;
+  interrupted.commit_interval = std::chrono::hours(1);
   interrupted.stop_after = 3;
   const std::string path = dir.file("resumed.mbtiles");
   EXPECT_FALSE(write_pack(path, plan, factory, interrupted).ok());
@@ -463,6 +465,23 @@ TEST(MbtilesPack, ResumesAnInterruptedExportWithTheSameTiles) {
     }
   }
   EXPECT_EQ(read_mbtiles_metadata(path).value()["terrain_export_state"], "complete");
+}
+
+TEST(TilePack, StopsAtItsTileEvenInTheMiddleOfABatch) {
+  // The synthetic tiles come far faster than SQLite commits, so the writer takes them in batches.
+  const PackPlan plan = world_plan(0, 6);
+  for (int attempt = 0; attempt < 5; ++attempt) {
+    TempDir dir;
+    PackOptions interrupted;
+    interrupted.commit_every = 2;
+    interrupted.commit_interval = std::chrono::hours(1);
+    interrupted.stop_after = 3;
+    const std::string path = dir.file("stopped.mbtiles");
+    EXPECT_FALSE(write_pack(path, plan, synthetic_factory(2), interrupted).ok());
+    const PackReport report = write_pack(path, plan, synthetic_factory(2)).value();
+    EXPECT_EQ(report.resumed, 2u);
+    EXPECT_EQ(report.made, plan.tile_count() - 2);
+  }
 }
 
 TEST(TilePack, RefusesToResumeAPackMadeWithOtherParameters) {

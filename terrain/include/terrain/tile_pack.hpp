@@ -5,6 +5,7 @@
 // threads and write the same PMTiles bytes whatever the thread count (docs/packs.md).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -91,6 +92,8 @@ struct PackProgress {
 struct PackOptions {
   int threads = 1;
   std::uint64_t commit_every = 256;  ///< tiles per transaction (a kill loses at most these)
+  /// A transaction also commits once this long has passed since the last commit.
+  std::chrono::milliseconds commit_interval{5000};
   /// Called on the calling thread at most about four times a second, and once at the end.
   std::function<void(const PackProgress&)> progress;
   /// Testing: stop as a kill would, after this many tiles of this run are committed (0: never).
