@@ -114,7 +114,7 @@ void BM_TracedPicture(benchmark::State& state, const char* name) {
 const bool kRegistered = [] {
   for (const char* name : kExamples) {
     benchmark::RegisterBenchmark((std::string("BM_BoundTightness/") + name).c_str(),
-                                 BM_BoundTightness, name, 2.0)
+                                 BM_BoundTightness, name, 1.0)
         ->Unit(benchmark::kSecond)
         ->Iterations(1);
     benchmark::RegisterBenchmark((std::string("BM_TracedPicture/") + name).c_str(),

@@ -1415,6 +1415,24 @@ FractalBounds bounds_of(const Plan& plan, const double* least, double radius, Re
   // ridged/hybrid weight W_i: its range and a bound of |∇W_i|.
   Range weight{1.0, 1.0};
   double weight_slope = 0.0;
+  // ridged: the previous octave, whose slope coefficient waits for this octave's s.
+  struct RidgedOctave {
+    bool pending = false;
+    double own = 0.0;        // |a_i|·max|W_i|
+    double m = 0.0;          // max |m_i|
+    double eta_slope = 0.0;  // bound of |∇η_i(f_i p)|
+    bool free = false;       // whether W_{i+1}'s clamp can be inactive
+    double gain = 0.0;
+    // The coefficient's bound, given a bound of |a_{i+1}| s_{i+1}, times |∇η_i|.
+    double settle(double next_term) const {
+      double c = 2.0 * m * own;
+      if (free) {
+        c = std::max(c, 2.0 * std::min(m, 1.0 / std::sqrt(gain)) * (own + gain * next_term));
+      }
+      return c * eta_slope;
+    }
+  } ridged;
+  ridged.gain = ridge_gain;
   // warped: bounds of |∇H_{i-1}| and |∇T_i|.
   double height_slope = 0.0;
   double sum_slope = 0.0;
@@ -1437,21 +1455,24 @@ FractalBounds bounds_of(const Plan& plan, const double* least, double radius, Re
         break;
       }
       case Fractal::ridged: {
-        // s = m², m = o − |η|; where the weight's clamp is inactive γs < 1, so |m| < 1/√γ.
+        // s = m², m = o − |η|, and the next weight W' = clamp(γs). η_i enters the gradient
+        // through this term and through W', with one sign: ∂F/∂η_i = −sgn(η_i)·2m·(a_i W_i +
+        // [γs < 1] γ a_{i+1} s_{i+1}). Where that clamp is inactive |m| < 1/√γ, so the two
+        // parts never peak at one point (ridged_coefficient): octave i's slope coefficient is
+        // settled once octave i+1's s is known.
         const Range abs_eta = absolute(eta.value);
         const Range m{offset - abs_eta.hi, offset - abs_eta.lo};
         const Range s = squared(m);
-        const double s_slope = 2.0 * magnitude(m) * eta_slope;
         const Range term = product(product(s, weight), amplitude);
         out.value.lo += term.lo;
         out.value.hi += term.hi;
-        out.lipschitz += std::abs(a) * (magnitude(weight) * s_slope + s.hi * weight_slope);
+        if (ridged.pending) out.lipschitz += ridged.settle(std::abs(a) * s.hi);
+        ridged.pending = true;
+        ridged.own = std::abs(a) * magnitude(weight);
+        ridged.m = magnitude(m);
+        ridged.eta_slope = eta_slope;
+        ridged.free = ridge_gain > 0.0 && ridge_gain * s.lo < 1.0;
         weight = clamped01(scaled(s, ridge_gain));
-        const bool clamp_active = ridge_gain > 0.0 && ridge_gain * s.lo < 1.0;
-        weight_slope =
-            clamp_active
-                ? ridge_gain * 2.0 * std::min(magnitude(m), 1.0 / std::sqrt(ridge_gain)) * eta_slope
-                : 0.0;
         break;
       }
       case Fractal::hybrid: {
@@ -1481,11 +1502,12 @@ FractalBounds bounds_of(const Plan& plan, const double* least, double radius, Re
       }
     }
   }
+  if (ridged.pending) out.lipschitz += ridged.settle(0.0);
   return out;
 }
 
 FractalBounds bounds_of(const FractalParams& p, float octaves, double radius, double lambda) {
-  return bounds_of(make_plan(p, octaves), nullptr, radius, [lambda](const Octave&) {
+  return bounds_of(cached_plan(p, octaves), nullptr, radius, [lambda](const Octave&) {
     return OctaveReach{{-1.0, 1.0}, lambda};
   });
 }
@@ -1593,12 +1615,14 @@ RegionBounds fractal_bounds_near(const FractalParams& p, Interval octaves, Vec2 
   const double lambda = lipschitz(p.basis, 2);
   const float most = octaves.hi;
   if (!std::isfinite(centre.x) || !std::isfinite(centre.y) || !(radius >= 0.0f)) {
-    return {fractal_range(p, most), fractal_lipschitz(p, most, std::numeric_limits<float>::max())};
+    return RegionBounds::of_slope(fractal_range(p, most),
+                                  fractal_lipschitz(p, most, std::numeric_limits<float>::max()));
   }
   if (p.kind == Fractal::warped) {
     // Range and slope bound hold at any octave count up to `most`; the slope grows with the
     // distance from the origin, at most |c| + r in the region.
-    return {fractal_range(p, most), fractal_lipschitz(p, most, length(centre) + radius)};
+    return RegionBounds::of_slope(fractal_range(p, most),
+                                  fractal_lipschitz(p, most, length(centre) + radius));
   }
   // Octave i's amplitude lies between the two octave counts' (weights rise with the count). The
   // fewest's are copied out first: the next cache lookup may reuse its entry.
@@ -1648,8 +1672,8 @@ RegionBounds fractal_bounds_near(const FractalParams& p, Interval octaves, Vec2 
       r = {{std::max(-1.0, value - spread), std::min(1.0, value + spread)},
            std::min(lambda, g + hessian * rho)};
       if (fixed && g + hessian * rho < lambda) {
-        taylor_x += slope_scale * n.dx;
-        taylor_y += slope_scale * n.dy;
+        taylor_x += amplitude * o.frequency * n.dx;  // signed: these add as vectors
+        taylor_y += amplitude * o.frequency * n.dy;
         remainder += slope_scale * (hessian * rho + kSlack);
         taylor_value += amplitude * value;
         curvature += std::abs(amplitude) * (0.5 * hessian * rho * rho + kSlack);
@@ -1665,16 +1689,26 @@ RegionBounds fractal_bounds_near(const FractalParams& p, Interval octaves, Vec2 
   });
   double slope = local.lipschitz;
   Range value = local.value;
+  Vec2 gradient{0.0f, 0.0f};
+  double spread = slope;
   if (p.kind == Fractal::fbm) {
-    slope = std::min(slope, std::sqrt(taylor_x * taylor_x + taylor_y * taylor_y) + remainder);
+    const double taylor = std::sqrt(taylor_x * taylor_x + taylor_y * taylor_y);
+    if (taylor + remainder < slope) {
+      slope = taylor + remainder;
+      // The float centre gradient is off the double one by its rounding, added to the spread.
+      gradient = {static_cast<float>(taylor_x), static_cast<float>(taylor_y)};
+      const double rounded = std::hypot(static_cast<double>(gradient.x) - taylor_x,
+                                        static_cast<double>(gradient.y) - taylor_y);
+      spread = remainder + rounded;
+    }
     // F_T(p) − F_T(c) ≤ |∇F_T(c)| r + Σ a_i M₂ ρ_i²/2 for the Taylor octaves T.
-    const double spread = std::sqrt(taylor_x * taylor_x + taylor_y * taylor_y) * radius + curvature;
-    value.lo = std::max(value.lo, taylor_value - spread + rest.lo);
-    value.hi = std::min(value.hi, taylor_value + spread + rest.hi);
+    const double value_reach = taylor * radius + curvature;
+    value.lo = std::max(value.lo, taylor_value - value_reach + rest.lo);
+    value.hi = std::min(value.hi, taylor_value + value_reach + rest.hi);
   }
   // Never looser than the global bounds: every octave's range and slope lie within the basis'
   // own, and the bounds only grow with them.
-  return {{round_down(value.lo), round_up(value.hi)}, round_up(slope)};
+  return {{round_down(value.lo), round_up(value.hi)}, round_up(slope), gradient, round_up(spread)};
 }
 
 float hessian_bound(Basis basis, int dimensions) {

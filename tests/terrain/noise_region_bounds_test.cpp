@@ -160,6 +160,9 @@ TEST(FractalRegionBounds, HoldAtEveryPointOfTheRegion) {
               ASSERT_GE(s.value, b.value.lo - tol) << label(p, radius);
               ASSERT_LE(s.value, b.value.hi + tol) << label(p, radius);
               ASSERT_LE(std::hypot(s.dx, s.dy), b.lipschitz * 1.0001f + 1e-6f) << label(p, radius);
+              ASSERT_LE(std::hypot(s.dx - b.gradient_at_centre.x, s.dy - b.gradient_at_centre.y),
+                        b.gradient_spread * 1.0001f + 1e-6f)
+                  << label(p, radius) << ": the gradient strays beyond its spread";
               const Vec2 q = in_disc(rng, centre, radius);
               const double d = std::hypot(double{a.x} - q.x, double{a.y} - q.y);
               ASSERT_LE(std::abs(double{s.value} - fractal2(p, q, octaves).value),
@@ -227,6 +230,38 @@ TEST(FractalRegionBounds, SmallRegionsGetTheSlopeTheyHave) {
     EXPECT_LT(bound_sum, (kind == Fractal::fbm ? 1.2 : 2.5) * slope_sum)
         << "mean region bound against the mean slope";
   }
+}
+
+TEST(FractalRegionBounds, SmallFbmRegionsKnowTheGradientItself) {
+  // Three octaves from 1800 m over 10 m: the gradient is nearly the centre's, within a spread far
+  // below its length.
+  FractalParams p = params(Fractal::fbm, Basis::gradient, 3);
+  p.frequency = 1.0f / 1800.0f;
+  std::mt19937 rng(5);
+  for (int region = 0; region < 100; ++region) {
+    const Vec2 centre = in_disc(rng, {0.0f, 0.0f}, 2000.0f);
+    const RegionBounds b = fractal_bounds_near(p, 3.0f, centre, 10.0f);
+    const Sample2 s = fractal2(p, centre, 3.0f);
+    EXPECT_NEAR(b.gradient_at_centre.x, s.dx, 1e-3f * b.lipschitz);
+    EXPECT_NEAR(b.gradient_at_centre.y, s.dy, 1e-3f * b.lipschitz);
+    EXPECT_LT(b.gradient_spread, 0.25f * fractal_lipschitz(p, 3.0f, 0.0f));
+  }
+}
+
+// η_i reaches the gradient through its own term and the next octave's weight, which never both
+// peak at one point; counting each at its peak made the bound 20% looser per octave.
+TEST(FractalLipschitz, RidgedBoundCountsEachOctavesPeakOnce) {
+  const FractalParams p = params(Fractal::ridged, Basis::gradient, 9);
+  std::mt19937 rng(41);
+  float steepest = 0.0f;
+  for (int k = 0; k < 400000; ++k) {
+    const Sample2 s = fractal2(p, in_disc(rng, {0.0f, 0.0f}, 3000.0f), 9.0f);
+    steepest = std::max(steepest, std::hypot(s.dx, s.dy));
+  }
+  const float bound = fractal_lipschitz(p, 9.0f, 0.0f);
+  EXPECT_GE(bound, steepest);
+  // 3.46 now; 4.1 when the two peaks were added.
+  EXPECT_LE(bound, 3.75f * steepest) << "bound " << bound << ", steepest " << steepest;
 }
 
 TEST(FractalRegionBounds, WarpedKindGetsItsGlobalBounds) {

@@ -136,6 +136,15 @@ float fractal_lipschitz(const FractalParams& p, float octaves, float radius);
 struct RegionBounds {
   Interval value;
   float lipschitz = 0.0f;
+  /// |∇F(p) − gradient_at_centre| ≤ gradient_spread everywhere in the region: the gradient
+  /// itself, not just its length, where the octaves allow it (fBm over a small region); else a
+  /// zero vector and the slope bound.
+  Vec2 gradient_at_centre{0.0f, 0.0f};
+  float gradient_spread = 0.0f;
+  /// Bounds that know the slope alone.
+  static RegionBounds of_slope(Interval value, float lipschitz) {
+    return {value, lipschitz, {0.0f, 0.0f}, lipschitz};
+  }
 };
 RegionBounds fractal_bounds_near(const FractalParams& p, Interval octaves, Vec2 centre,
                                  float radius);

@@ -56,11 +56,12 @@ struct CompileOptions {
   bool concatenate_affine = true;
   bool cull = true;  ///< emit cull/group boxes (false: plain traversal)
   /// Box queries spent on the global Lipschitz bound (partitioned_lipschitz): more is tighter and
-  /// slower (about 40 µs each on the mountain-range example); 0 keeps the single-query bound.
-  int bound_queries = 2048;
+  /// slower (about 25 µs each on the mountain-range example, 0.3 s in all); 0 keeps the
+  /// single-query bound.
+  int bound_queries = 12288;
   /// At most this many instructions walked by those queries together, so a large scene's compile
   /// stays bounded (a query walks at most the whole program): fewer queries for longer programs.
-  std::int64_t bound_instruction_budget = 2'000'000;
+  std::int64_t bound_instruction_budget = 4'000'000;
 };
 
 /// Where a blend child with this support (tree_bounds(child, {}).support) goes in its blend's

@@ -187,9 +187,12 @@ NodeBounds disc_bounds(const float* params, const BoundsQuery& query) {
   // The octave counts of the spacings asked for (fewer at coarser ones).
   const Interval octaves{noise::visible_octaves(fractal, query.coarsest()),
                          noise::visible_octaves(fractal, query.spacing)};
-  noise::RegionBounds noise_bounds{noise::fractal_range(fractal, octaves.hi),
-                                   noise::fractal_lipschitz(fractal, octaves.hi, radius)};
-  if (fractal.kind != noise::Fractal::warped) {
+  noise::RegionBounds noise_bounds;
+  if (fractal.kind == noise::Fractal::warped) {
+    noise_bounds =
+        noise::RegionBounds::of_slope(noise::fractal_range(fractal, octaves.hi),
+                                      noise::fractal_lipschitz(fractal, octaves.hi, radius));
+  } else {
     // Over a box, each octave's own slope there (the noise is evaluated at offsets from c); over
     // an unbounded one, the global bounds at every octave count asked for.
     const Box2& q = query.box;

@@ -125,9 +125,22 @@ NodeBounds warp_bounds(const float* params, const BoundsQuery& query, const Node
   NodeBounds out = child;
   out.support = child.support.empty() ? child.support
                                       : child.support.expanded(displacement_bound(p, octaves));
-  const float lx = component_bounds(p, query).lipschitz;
-  const float ly = component_bounds(component(params, 2), query).lipschitz;
-  const float stretch = 1.0f + std::sqrt(lx * lx + ly * ly) * 1.000001f;
+  const noise::RegionBounds bx = component_bounds(p, query);
+  const noise::RegionBounds by = component_bounds(component(params, 2), query);
+  const double lx = bx.lipschitz, ly = by.lipschitz;
+  // Or about the centre: ‖I + ∇d(p)‖ ≤ ‖I + ∇d(c)‖ + ‖∇d(p) − ∇d(c)‖_F, the first the exact
+  // largest singular value (the stretch a box small beside the wavelength really sees).
+  const double a = 1.0 + bx.gradient_at_centre.x, b = bx.gradient_at_centre.y;
+  const double c = by.gradient_at_centre.x, d = 1.0 + by.gradient_at_centre.y;
+  const double frobenius = a * a + b * b + c * c + d * d, determinant = a * d - b * c;
+  const double largest = std::sqrt(
+      0.5 * (frobenius +
+             std::sqrt(std::max(0.0, frobenius * frobenius - 4.0 * determinant * determinant))));
+  const double spread =
+      std::hypot(static_cast<double>(bx.gradient_spread), static_cast<double>(by.gradient_spread));
+  const double stretch_bound =
+      std::min(1.0 + std::sqrt(lx * lx + ly * ly), largest + spread) * (1.0 + 1e-6);
+  const auto stretch = static_cast<float>(stretch_bound);
   out.elevation_lipschitz = child.elevation_lipschitz * stretch;
   out.weight_lipschitz = child.weight_lipschitz * stretch;
   return out;
