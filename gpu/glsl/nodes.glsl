@@ -31,7 +31,7 @@ Field disc_leaf(uint at, vec2 p, float spacing) {
   vec2 c = vec2(fetch_pool(at), fetch_pool(at + 1u));
   float radius = fetch_pool(at + 2u);
   float elevation = fetch_pool(at + 3u);
-  Fractal fr = read_fractal(at + 4u);
+  Fractal fr = read_fractal(at + kDiscFractal);
   TERRAIN_PRECISE float lx = p.x - c.x;
   TERRAIN_PRECISE float ly = p.y - c.y;
   TERRAIN_PRECISE float d = sqrt(lx * lx + ly * ly);
@@ -253,6 +253,13 @@ Field curve_leaf(uint at, vec2 p, float cutoff) {
   TERRAIN_PRECISE float ax = g.y * sign_ * q.grad_d.x;
   TERRAIN_PRECISE float ay = g.y * sign_ * q.grad_d.y;
   return Field(f, g.x, fx, fy, ax, ay);
+}
+
+// A curve leaf; where the parent ignores f outside the weight's support, far points stop early.
+Field curve_leaf_field(uint at, vec2 p, bool weighted_only) {
+  float cutoff = weighted_only ? (fetch_pool(at + 9u) + fetch_pool(at)) * 1.001
+                               : uintBitsToFloat(0x7f800000u);
+  return curve_leaf(at, p, cutoff);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -666,6 +673,9 @@ Field lod_combine(uint at, float spacing, Field a, Field b) {
 // offset, spacing factor) and warp (33, a fractal displacement; its Jacobian is kept while the
 // child runs). A frame is (point, spacing); the Jacobian (∂q/∂p, row-major) is a vec4.
 
+// A transform's child sample spacing.
+float transform_spacing(uint at, float spacing) { return spacing * fetch_pool(at + 14u); }
+
 vec2 transform_point(uint at, vec2 p) {
   TERRAIN_PRECISE float x = fetch_pool(at) * p.x + fetch_pool(at + 1u) * p.y + fetch_pool(at + 4u);
   TERRAIN_PRECISE float y =
@@ -687,7 +697,7 @@ Field transform_field(uint at, Field c) {
 
 // Displaced point q = p + (dx, dy); jacobian = ∂q/∂p (xx, xy, yx, yy).
 vec2 warp_point(uint at, vec2 p, float spacing, out vec4 jacobian) {
-  Fractal px = read_fractal(at);
+  Fractal px = read_fractal(at + kWarpFractal);
   Fractal py = px;
   px.seed = noise_hash2(px.seed, 1u);
   py.seed = noise_hash2(py.seed, 2u);

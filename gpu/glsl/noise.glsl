@@ -220,11 +220,14 @@ struct Fractal {
 };
 
 Fractal read_fractal(uint at) {
-  return Fractal(fetch_pool_uint(at), fetch_pool_uint(at + 1u), fetch_pool_uint(at + 2u),
-                 int(fetch_pool_uint(at + 3u)), fetch_pool(at + 4u), fetch_pool(at + 5u),
-                 fetch_pool(at + 6u), fetch_pool(at + 7u), fetch_pool(at + 8u),
-                 fetch_pool(at + 9u), fetch_pool(at + 10u), fetch_pool(at + 11u),
-                 vec2(fetch_pool(at + 12u), fetch_pool(at + 13u)), fetch_pool(at + 14u));
+  return Fractal(fetch_pool_uint(at + kFractalKind), fetch_pool_uint(at + kFractalBasis),
+                 fetch_pool_uint(at + kFractalSeed), int(fetch_pool_uint(at + kFractalOctaves)),
+                 fetch_pool(at + kFractalFrequency), fetch_pool(at + kFractalAmplitude),
+                 fetch_pool(at + kFractalLacunarity), fetch_pool(at + kFractalHurst),
+                 fetch_pool(at + kFractalRidgeOffset), fetch_pool(at + kFractalRidgeGain),
+                 fetch_pool(at + kFractalWarpC1), fetch_pool(at + kFractalWarpC2),
+                 vec2(fetch_pool(at + kFractalWarpC3x), fetch_pool(at + kFractalWarpC3y)),
+                 fetch_pool(at + kFractalGain));
 }
 
 // Schneider's LoD octave count (the CPU computes the logarithms in double; float here differs by

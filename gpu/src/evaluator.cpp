@@ -15,6 +15,7 @@
 
 #include "glsl_sources.hpp"
 #include "gpu/program_glsl.hpp"
+#include "terrain/fractal_layout.hpp"
 #include "terrain/node.hpp"
 #include "terrain/sphere_trace.hpp"
 
@@ -104,12 +105,12 @@ std::size_t loop_iterations_per_evaluation(const terrain::Program& p) {
 
 std::vector<float> prepare_pool(const terrain::Program& program) {
   std::vector<float> pool = program.pool;
-  constexpr std::size_t kLacunarity = 6, kHurst = 7, kGain = 14, kFractalFloats = 16;
+  namespace layout = terrain::fractal_layout;
   auto fill = [&pool](std::size_t fractal) {
-    if (fractal + kFractalFloats > pool.size()) return;
-    pool[fractal + kGain] =
-        static_cast<float>(std::pow(static_cast<double>(pool[fractal + kLacunarity]),
-                                    -static_cast<double>(pool[fractal + kHurst])));
+    if (fractal + layout::kFloats > pool.size()) return;
+    pool[fractal + layout::kGain] =
+        static_cast<float>(std::pow(static_cast<double>(pool[fractal + layout::kLacunarity]),
+                                    -static_cast<double>(pool[fractal + layout::kHurst])));
   };
   for (const std::uint32_t at : fractal_offsets(program)) fill(at);
   return pool;
@@ -225,9 +226,12 @@ struct GpuEvaluator::Run {
 };
 
 std::string_view shared_glsl() {
-  static const std::string text = std::string(glsl::portable_math()) + "\n" +
-                                  std::string(glsl::noise()) + "\n" + std::string(glsl::nodes()) +
-                                  "\n" + std::string(glsl::interpreter());
+  // The registry's tables first (the node functions read fractal offsets from them), its
+  // dispatch after the node functions it calls.
+  static const std::string text = std::string(glsl::portable_math()) + "\n" + node_table_glsl() +
+                                  "\n" + std::string(glsl::noise()) + "\n" +
+                                  std::string(glsl::nodes()) + "\n" + node_dispatch_glsl() + "\n" +
+                                  std::string(glsl::interpreter());
   return text;
 }
 

@@ -1,5 +1,7 @@
 #include "gpu/program_glsl.hpp"
 
+#include "terrain/fractal_layout.hpp"
+
 #include <algorithm>
 #include <bit>
 #include <cassert>
@@ -16,19 +18,18 @@ using terrain::Op;
 
 using terrain::NodeCategory;
 
-// The node types gpu/glsl/nodes.glsl implements (besides blend, which every shader has), by
-// their registry names; interpreter.glsl has a TERRAIN_USES_<NAME> switch for each.
-constexpr std::string_view kShaderNodes[] = {"disc", "curve", "contour",   "image", "replace",
-                                             "add",  "lod",   "transform", "warp"};
-
 bool in_shaders(const terrain::NodeType& node) {
-  return std::find(std::begin(kShaderNodes), std::end(kShaderNodes), node.name) !=
-         std::end(kShaderNodes);
+  return node.shader.implemented();
 }
 
 std::string_view type_name(std::uint16_t id) {
   const terrain::NodeType* node = terrain::node_type_by_id(id);
   return node ? node->name : std::string_view("unknown");
+}
+
+// The node type of an instruction the shaders implement, or null.
+const terrain::NodeType* shader_node(const terrain::Instruction& ins) {
+  return shader_implements(ins.op, ins.type) ? terrain::node_type_by_id(ins.type) : nullptr;
 }
 
 Error unsupported_node(const terrain::Instruction& ins) {
@@ -63,18 +64,16 @@ class Emitter {
           return Error{"instruction " + std::to_string(pc) + " pops an empty stack", ""};
         return terrain::Ok{};
       };
-      const std::string_view name = type_name(ins.type);
       switch (ins.op) {
         case Op::leaf: {
-          std::string call;
-          if (name == "disc") call = "disc_leaf(" + at + ", " + point + ", " + spacing + ")";
-          if (name == "curve")
-            call = "curve_leaf_field(" + at + ", " + point + ", " +
-                   (ins.skip != 0 ? "true" : "false") + ")";
-          if (name == "contour") call = "contour_leaf(" + at + ", " + point + ")";
-          if (name == "image") call = "image_leaf(" + at + ", " + point + ")";
-          if (call.empty()) return unsupported(pc);
-          line(pad + field(sp) + " = " + call + ";");
+          const terrain::NodeType* node = shader_node(ins);
+          if (node == nullptr) return unsupported(pc);
+          ShaderArguments args;
+          args.at = at;
+          args.point = point;
+          args.spacing = spacing;
+          args.weighted_only = ins.skip != 0 ? "true" : "false";
+          line(pad + field(sp) + " = " + expand_shader_template(node->shader.call, args) + ";");
           ++sp;
           break;
         }
@@ -114,29 +113,29 @@ class Emitter {
         }
         case Op::combine: {
           if (auto s = need(2); !s) return s.error();
+          const terrain::NodeType* node = shader_node(ins);
+          if (node == nullptr) return unsupported(pc);
           --sp;
-          const std::string a = field(sp - 1), b = field(sp);
-          std::string call;
-          if (name == "replace") call = "replace_combine(" + at + ", " + a + ", " + b + ")";
-          if (name == "add") call = "add_combine(" + at + ", " + a + ", " + b + ")";
-          if (name == "lod")
-            call = "lod_combine(" + at + ", " + spacing + ", " + a + ", " + b + ")";
-          if (call.empty()) return unsupported(pc);
-          line(pad + a + " = " + call + ";");
+          ShaderArguments args;
+          args.at = at;
+          args.spacing = spacing;
+          args.a = field(sp - 1);
+          args.b = field(sp);
+          line(pad + args.a + " = " + expand_shader_template(node->shader.call, args) + ";");
           break;
         }
         case Op::warp_begin: {
+          const terrain::NodeType* node = shader_node(ins);
+          if (node == nullptr) return unsupported(pc);
           const std::string inner = std::to_string(fp + 1);
-          if (name == "transform") {
-            line(pad + "p" + inner + " = transform_point(" + at + ", " + point + ");");
-            line(pad + "s" + inner + " = transform_spacing(" + at + ", " + spacing + ");");
-          } else if (name == "warp") {
-            line(pad + "p" + inner + " = warp_point(" + at + ", " + point + ", " + spacing + ", j" +
-                 inner + ");");
-            line(pad + "s" + inner + " = " + spacing + ";");
-          } else {
-            return unsupported(pc);
-          }
+          ShaderArguments args;
+          args.at = at;
+          args.point = point;
+          args.spacing = spacing;
+          args.child_point = "p" + inner;
+          args.child_spacing = "s" + inner;
+          args.jacobian = "j" + inner;
+          line(pad + expand_shader_template(node->shader.enter, args));
           ++fp;
           max_frames_ = std::max(max_frames_, fp + 1);
           break;
@@ -144,14 +143,14 @@ class Emitter {
         case Op::warp_end: {
           if (auto s = need(1); !s) return s.error();
           if (fp == 0) return malformed(pc, "ends a frame that was not begun");
+          const terrain::NodeType* node = shader_node(ins);
+          if (node == nullptr) return unsupported(pc);
           const std::string f = field(sp - 1);
-          if (name == "transform") {
-            line(pad + f + " = transform_field(" + at + ", " + f + ");");
-          } else if (name == "warp") {
-            line(pad + f + " = warp_field(j" + std::to_string(fp) + ", " + f + ");");
-          } else {
-            return unsupported(pc);
-          }
+          ShaderArguments args;
+          args.at = at;
+          args.field = f;
+          args.jacobian = "j" + std::to_string(fp);
+          line(pad + f + " = " + expand_shader_template(node->shader.leave, args) + ";");
           --fp;
           break;
         }
@@ -207,7 +206,10 @@ bool unroll_pays(const terrain::Program& program) {
   constexpr int kMaxInlinedCalls = 16;
   int calls = 0;
   for (const terrain::Instruction& ins : program.code) {
-    if (ins.op == Op::leaf || (ins.op == Op::warp_begin && type_name(ins.type) == "warp")) ++calls;
+    const terrain::NodeType* node = terrain::node_type_by_id(ins.type);
+    if ((ins.op == Op::leaf || ins.op == Op::warp_begin) && node != nullptr && node->shader.heavy) {
+      ++calls;
+    }
   }
   return calls <= kMaxInlinedCalls;
 }
@@ -215,9 +217,12 @@ bool unroll_pays(const terrain::Program& program) {
 std::vector<std::uint32_t> fractal_offsets(const terrain::Program& program) {
   std::vector<std::uint32_t> out;
   for (const terrain::Instruction& ins : program.code) {
-    const std::string_view name = type_name(ins.type);
-    if (ins.op == Op::leaf && name == "disc") out.push_back(ins.params + 4);
-    if (ins.op == Op::warp_begin && name == "warp") out.push_back(ins.params);
+    // One instruction per node carries its parameters: the leaf, the combine, the warp's begin.
+    if (ins.op != Op::leaf && ins.op != Op::combine && ins.op != Op::warp_begin) continue;
+    const terrain::NodeType* node = terrain::node_type_by_id(ins.type);
+    if (node != nullptr && node->shader.fractal_offset >= 0) {
+      out.push_back(ins.params + static_cast<std::uint32_t>(node->shader.fractal_offset));
+    }
   }
   return out;
 }
@@ -229,29 +234,29 @@ std::string node_type_defines(const terrain::Program& program) {
   // terrain::pack_fractal stores their bits.
   bool kinds[4] = {false, false, false, false}, bases[2] = {false, false};
   // A fractal of amplitude 0 (a plain disc) adds nothing whatever its kind: not counted.
+  namespace layout = terrain::fractal_layout;
   for (const std::uint32_t at : fractal_offsets(program)) {
-    if (at + 6 > program.pool.size() || program.pool[at + 5] == 0.0f) continue;
-    const auto kind = std::bit_cast<std::uint32_t>(program.pool[at]);
-    const auto basis = std::bit_cast<std::uint32_t>(program.pool[at + 1]);
+    if (at + layout::kFloats > program.pool.size() ||
+        program.pool[at + layout::kAmplitude] == 0.0f) {
+      continue;
+    }
+    const auto kind = std::bit_cast<std::uint32_t>(program.pool[at + layout::kKind]);
+    const auto basis = std::bit_cast<std::uint32_t>(program.pool[at + layout::kBasis]);
     if (kind < 4) kinds[kind] = true;
     if (basis < 2) bases[basis] = true;
   }
   std::string out;
-  auto define = [&out](std::string_view name, bool on) {
-    out += "#define TERRAIN_USES_" + std::string(name) + (on ? " 1\n" : " 0\n");
+  auto define = [&out](const std::string& name, bool on) {
+    out += "#define " + name + (on ? " 1\n" : " 0\n");
   };
-  define("NOISE_FBM", kinds[0]);
-  define("NOISE_RIDGED", kinds[1]);
-  define("NOISE_HYBRID", kinds[2]);
-  define("NOISE_WARPED", kinds[3]);
-  define("NOISE_GRADIENT", bases[0]);
-  define("NOISE_SIMPLEX", bases[1]);
-  for (std::string_view name : kShaderNodes) {
-    const terrain::NodeType* node = terrain::find_node_type(name);
-    assert(node != nullptr);
-    std::string upper(name);
-    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    define(upper, used.contains(node->id));
+  define("TERRAIN_USES_NOISE_FBM", kinds[0]);
+  define("TERRAIN_USES_NOISE_RIDGED", kinds[1]);
+  define("TERRAIN_USES_NOISE_HYBRID", kinds[2]);
+  define("TERRAIN_USES_NOISE_WARPED", kinds[3]);
+  define("TERRAIN_USES_NOISE_GRADIENT", bases[0]);
+  define("TERRAIN_USES_NOISE_SIMPLEX", bases[1]);
+  for (const terrain::NodeType* node : terrain::node_types()) {
+    if (in_shaders(*node)) define(uses_define(*node), used.contains(node->id));
   }
   return out;
 }

@@ -19,7 +19,7 @@
 namespace terrain {
 
 std::span<const NodeType* const> node_types() {
-  static const std::array<const NodeType*, 10> kTypes{
+  static const NodeType* const kTypes[] = {
       &disc_node_type(),      &curve_node_type(),   &contour_node_type(), &image_node_type(),
       &blend_node_type(),     &replace_node_type(), &add_node_type(),     &lod_node_type(),
       &transform_node_type(), &warp_node_type(),

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "terrain/node.hpp"
@@ -16,6 +17,28 @@
 #include "terrain/result.hpp"
 
 namespace gpu {
+
+/// The GLSL constant of a node type's id (`kTypeDisc`) and its TERRAIN_USES_<TYPE> switch.
+std::string type_constant(const terrain::NodeType& type);
+std::string uses_define(const terrain::NodeType& type);
+
+/// What a node's shader templates (terrain::ShaderNode) are filled in with: GLSL expressions.
+struct ShaderArguments {
+  std::string at, point, spacing, weighted_only, a, b, field, child_point, child_spacing, jacobian;
+};
+
+/// A ShaderNode template with its `$` placeholders replaced by `args`.
+std::string expand_shader_template(std::string_view text, const ShaderArguments& args);
+
+/// Generated from the registry, put before the shared GLSL: every node type's id constant, the
+/// pool offset of its fractal (`k<Type>Fractal`), the fractal layout (`kFractal<Field>`), and
+/// the default (1) of every TERRAIN_USES_<TYPE> the shaders implement.
+std::string node_table_glsl();
+
+/// Generated from the registry, put after the node functions: the interpreter's dispatch over
+/// node types (leaf_field, combine_fields, enter_frame, leave_frame), each branch under its
+/// TERRAIN_USES_<TYPE>; left out under TERRAIN_SPECIALISED.
+std::string node_dispatch_glsl();
 
 /// Whether the shaders implement node type `type` for instructions of kind `op`.
 bool shader_implements(terrain::Op op, std::uint16_t type);

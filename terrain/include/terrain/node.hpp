@@ -101,6 +101,27 @@ inline constexpr std::size_t kShaderSearchLoops = 16;
 /// loop of an invocation after 65 535 iterations in all) split or refuse work by it.
 using LoopCost = std::size_t (*)(std::span<const float> params);
 
+/// A node type's side in the GPU shaders: GLSL that calls its function of gpu/glsl/nodes.glsl,
+/// from which the shaders' type ids, TERRAIN_USES_* switches, the interpreter's dispatch and the
+/// unrolled programs are generated (gpu/program_glsl.hpp). Placeholders the generator fills in:
+/// `$at` the node's pool offset (uint); `$p`, `$s` the point (vec2) and sample spacing (float)
+/// of the node's frame; `$w` whether its parent ignores f where α = 0 (bool); `$a`, `$b` a
+/// binary node's children's fields; `$f` a warp's child field; `$q`, `$t`, `$j` the child
+/// frame's point, spacing and Jacobian (vec4) that a warp's `enter` sets. Blend is in every
+/// shader and has none. A node type without it runs on the CPU only.
+struct ShaderNode {
+  std::string_view call = {};   ///< primitive, binary: a Field expression
+  std::string_view enter = {};  ///< warp: statements that set $q, $t and, for a warp, $j
+  std::string_view leave = {};  ///< warp: the Field expression of the parent's field from $f
+  /// Where the node's fractal (pack_fractal's kFractalFloats floats) starts in its pool, or -1.
+  int fractal_offset = -1;
+  /// Whether its call is a large body to inline (a leaf, a noise warp): the driver's compile time
+  /// grows faster than the code, so gpu::unroll_pays counts these calls.
+  bool heavy = false;
+
+  bool implemented() const { return !call.empty() || !enter.empty(); }
+};
+
 /// Static description of a node type.
 struct NodeType {
   std::uint16_t id = 0;   ///< stable opcode shared by every evaluator (never reused)
@@ -118,6 +139,8 @@ struct NodeType {
   std::string_view example_json;
   /// Its loop iterations per evaluation; every node type has one (no_loops where there are none).
   LoopCost loop_iterations = nullptr;
+  /// How the GPU shaders evaluate it.
+  ShaderNode shader = {};
 };
 
 /// The loop cost of a node type whose kernels have no loops of their own.

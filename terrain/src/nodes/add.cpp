@@ -81,6 +81,7 @@ const NodeType& add_node_type() {
  {"type": "disc", "center": [0, 0], "radius": 1500, "elevation": 0,
   "noise": {"kind": "ridged", "amplitude": 15, "wavelength": 120, "octaves": 4, "seed": 5}}]})",
       .loop_iterations = no_loops,
+      .shader = {.call = "add_combine($at, $a, $b)"},
   };
   return type;
 }

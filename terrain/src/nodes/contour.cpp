@@ -165,6 +165,7 @@ const NodeType& contour_node_type() {
  "profiles": [{"preset": "lake", "depth": 25, "shore_width": 0.25},
               {"preset": "crater", "depth": 25, "rim_height": 30, "rim_width": 0.4}]})",
       .loop_iterations = contour_loop_iterations,
+      .shader = {.call = "contour_leaf($at, $p)", .heavy = true},
   };
   return type;
 }

@@ -252,6 +252,7 @@ const NodeType& curve_node_type() {
  "profiles": [{"at": 0, "preset": "stream", "width": 8, "depth": 2},
               {"at": 1, "preset": "meander", "width": 40, "depth": 5, "bank_width": 30, "asymmetry": 0.6}]})",
       .loop_iterations = curve_loop_iterations,
+      .shader = {.call = "curve_leaf_field($at, $p, $w)", .heavy = true},
   };
   return type;
 }

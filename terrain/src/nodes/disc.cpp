@@ -247,6 +247,7 @@ const NodeType& disc_node_type() {
       .example_json = R"({"type": "disc", "center": [0, 0], "radius": 2000, "elevation": 300,
  "noise": {"kind": "ridged", "amplitude": 400, "wavelength": 1500, "octaves": 8, "seed": 7}})",
       .loop_iterations = disc_loop_iterations,
+      .shader = {.call = "disc_leaf($at, $p, $s)", .fractal_offset = kFractal, .heavy = true},
   };
   return type;
 }

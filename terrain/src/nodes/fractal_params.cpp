@@ -59,41 +59,41 @@ noise::FractalParams read_fractal(FieldReader& reader, ParseContext& context,
 }
 
 void pack_fractal(const noise::FractalParams& p, std::vector<float>& pool) {
-  const std::array<float, kFractalFloats> packed{
-      bits_to_float(static_cast<std::uint32_t>(p.kind)),
-      bits_to_float(static_cast<std::uint32_t>(p.basis)),
-      bits_to_float(p.seed),
-      bits_to_float(static_cast<std::uint32_t>(p.octaves)),
-      p.frequency,
-      p.amplitude,
-      p.lacunarity,
-      p.hurst,
-      p.ridge_offset,
-      p.ridge_gain,
-      p.warp_c1,
-      p.warp_c2,
-      p.warp_c3.x,
-      p.warp_c3.y,
-      0.0f,
-      0.0f};
+  namespace at = fractal_layout;
+  std::array<float, kFractalFloats> packed{};
+  packed[at::kKind] = bits_to_float(static_cast<std::uint32_t>(p.kind));
+  packed[at::kBasis] = bits_to_float(static_cast<std::uint32_t>(p.basis));
+  packed[at::kSeed] = bits_to_float(p.seed);
+  packed[at::kOctaves] = bits_to_float(static_cast<std::uint32_t>(p.octaves));
+  packed[at::kFrequency] = p.frequency;
+  packed[at::kAmplitude] = p.amplitude;
+  packed[at::kLacunarity] = p.lacunarity;
+  packed[at::kHurst] = p.hurst;
+  packed[at::kRidgeOffset] = p.ridge_offset;
+  packed[at::kRidgeGain] = p.ridge_gain;
+  packed[at::kWarpC1] = p.warp_c1;
+  packed[at::kWarpC2] = p.warp_c2;
+  packed[at::kWarpC3X] = p.warp_c3.x;
+  packed[at::kWarpC3Y] = p.warp_c3.y;
   pool.insert(pool.end(), packed.begin(), packed.end());
 }
 
 noise::FractalParams unpack_fractal(const float* pool) {
+  namespace at = fractal_layout;
   noise::FractalParams p;
-  p.kind = static_cast<noise::Fractal>(float_to_bits(pool[0]));
-  p.basis = static_cast<noise::Basis>(float_to_bits(pool[1]));
-  p.seed = float_to_bits(pool[2]);
-  p.octaves = static_cast<int>(float_to_bits(pool[3]));
-  p.frequency = pool[4];
-  p.amplitude = pool[5];
-  p.lacunarity = pool[6];
-  p.hurst = pool[7];
-  p.ridge_offset = pool[8];
-  p.ridge_gain = pool[9];
-  p.warp_c1 = pool[10];
-  p.warp_c2 = pool[11];
-  p.warp_c3 = {pool[12], pool[13]};
+  p.kind = static_cast<noise::Fractal>(float_to_bits(pool[at::kKind]));
+  p.basis = static_cast<noise::Basis>(float_to_bits(pool[at::kBasis]));
+  p.seed = float_to_bits(pool[at::kSeed]);
+  p.octaves = static_cast<int>(float_to_bits(pool[at::kOctaves]));
+  p.frequency = pool[at::kFrequency];
+  p.amplitude = pool[at::kAmplitude];
+  p.lacunarity = pool[at::kLacunarity];
+  p.hurst = pool[at::kHurst];
+  p.ridge_offset = pool[at::kRidgeOffset];
+  p.ridge_gain = pool[at::kRidgeGain];
+  p.warp_c1 = pool[at::kWarpC1];
+  p.warp_c2 = pool[at::kWarpC2];
+  p.warp_c3 = {pool[at::kWarpC3X], pool[at::kWarpC3Y]};
   return p;
 }
 

@@ -5,12 +5,13 @@
 #include <vector>
 
 #include "field_reader.hpp"
+#include "terrain/fractal_layout.hpp"
 #include "terrain/noise.hpp"
 #include "terrain/scene.hpp"
 
 namespace terrain {
 
-inline constexpr int kFractalFloats = 16;
+inline constexpr int kFractalFloats = static_cast<int>(fractal_layout::kFloats);
 
 /// Reads {"kind", "basis", "amplitude", "wavelength", "octaves", "lacunarity", "hurst", "seed",
 /// "ridge_offset", "ridge_gain", "warp": [c1, c2, c3x, c3y]}. kind "none" yields amplitude 0.

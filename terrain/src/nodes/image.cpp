@@ -194,6 +194,7 @@ const NodeType& image_node_type() {
  "corners": [[-900, 800], [1000, 1000], [800, -900], [-1000, -800]],
  "elevation": 50, "height_scale": 600, "margin": 0.1})",
       .loop_iterations = image_loop_iterations,
+      .shader = {.call = "image_leaf($at, $p)", .heavy = true},
   };
   return type;
 }

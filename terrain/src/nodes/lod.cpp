@@ -94,6 +94,7 @@ const NodeType& lod_node_type() {
  {"type": "disc", "center": [0, 0], "radius": 1000, "elevation": 150,
   "noise": {"kind": "fbm", "amplitude": 20, "wavelength": 100, "seed": 9}}]})",
       .loop_iterations = no_loops,
+      .shader = {.call = "lod_combine($at, $s, $a, $b)"},
   };
   return type;
 }

@@ -97,6 +97,7 @@ const NodeType& replace_node_type() {
   "noise": {"kind": "fbm", "amplitude": 100, "wavelength": 1200, "seed": 3}},
  {"type": "disc", "center": [300, 200], "radius": 800, "elevation": 120}]})",
       .loop_iterations = no_loops,
+      .shader = {.call = "replace_combine($at, $a, $b)"},
   };
   return type;
 }

@@ -189,6 +189,8 @@ const NodeType& transform_node_type() {
  {"type": "disc", "center": [0, 0], "radius": 1000, "elevation": 300,
   "noise": {"kind": "ridged", "amplitude": 250, "wavelength": 700, "seed": 11}}]})",
       .loop_iterations = no_loops,
+      .shader = {.enter = "$q = transform_point($at, $p); $t = transform_spacing($at, $s);",
+                 .leave = "transform_field($at, $f)"},
   };
   return type;
 }

@@ -172,6 +172,10 @@ const NodeType& warp_node_type() {
  "wavelength": 1500, "octaves": 3, "seed": 4}, "children": [
  {"type": "disc", "center": [0, 0], "radius": 1200, "elevation": 250}]})",
       .loop_iterations = warp_loop_iterations,
+      .shader = {.enter = "$q = warp_point($at, $p, $s, $j); $t = $s;",
+                 .leave = "warp_field($j, $f)",
+                 .fractal_offset = 0,
+                 .heavy = true},
   };
   return type;
 }
