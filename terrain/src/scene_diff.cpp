@@ -18,7 +18,6 @@ namespace terrain {
 namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
-constexpr double kMercatorRadius = kWebMercatorRadius;
 
 bool finite(const Box2& b) {
   return std::isfinite(b.lo.x) && std::isfinite(b.lo.y) && std::isfinite(b.hi.x) &&
@@ -561,12 +560,12 @@ Box2 footprint(const Grid& g, const GeoFrame& frame, const SampleRange& r) {
   const double south = g.world.north - (static_cast<double>(r.y1) + g.offset) * g.step_y;
   if (g.scheme == TileScheme::local) return padded(to_float_box(west, south, east, north));
 
-  const double lon0 = g.scheme == TileScheme::webmercator ? west / kMercatorRadius / kDegree : west;
-  const double lon1 = g.scheme == TileScheme::webmercator ? east / kMercatorRadius / kDegree : east;
+  // The tile sampler's own conversions (tile.hpp), so that the footprint is where it samples.
+  const bool mercator = g.scheme == TileScheme::webmercator;
+  const double lon0 = mercator ? web_mercator_longitude(west) : west;
+  const double lon1 = mercator ? web_mercator_longitude(east) : east;
   const auto latitude = [&](double y) {
-    const double lat = g.scheme == TileScheme::webmercator
-                           ? std::atan(std::sinh(y / kMercatorRadius)) / kDegree
-                           : y;
+    const double lat = mercator ? web_mercator_latitude(y) : y;
     return std::clamp(lat, -90.0, 90.0);  // border rows beyond a pole sit on it
   };
   return geographic_footprint(frame, lon0, lon1, latitude(south), latitude(north));

@@ -236,9 +236,18 @@ Explain only_faint_fringe(std::vector<Disc> discs) {
   };
 }
 
-struct Counts {
+/// The most tiles predicted and the most whose heights changed, over the formats that are not
+/// global. Every caller checks them: without that, an edit that changed nothing would pass.
+struct [[nodiscard]] Counts {
   std::size_t predicted = 0, changed = 0;
 };
+
+/// The edit changed some tiles, and fewer were predicted than the grid holds: a local change.
+void expect_local(const Counts& counts, std::size_t tiles) {
+  EXPECT_GT(counts.changed, 0u) << "the edit changed no tile";
+  EXPECT_GE(counts.predicted, counts.changed);
+  EXPECT_LT(counts.predicted, tiles) << "a local edit predicted every tile";
+}
 
 // Compares the prediction with the tiles, format by format: soundness for every format;
 // exactness, up to `explain`, for the float heights behind the images and the meshes.
@@ -294,6 +303,12 @@ Counts expect_prediction(const Version& before, const Version& after, const Tile
     }
   }
   return counts;
+}
+
+/// expect_prediction for an edit whose change is local (see expect_local).
+void expect_local_prediction(const Version& before, const Version& after, const TileGrid& grid,
+                             const std::string& grid_name, const Explain& explain) {
+  expect_local(expect_prediction(before, after, grid, grid_name, explain), grid.addresses.size());
 }
 
 const std::vector<TileFormat> kImageAndMesh = {TileFormat::geotiff, TileFormat::terrain_rgb,
@@ -363,8 +378,8 @@ TEST(SceneChange, GrowingADiscChangesTheTilesOfItsLargerCircle) {
   json edited = base;
   edited["root"]["children"][3]["radius"] = 801.9;
   const Disc grown = disc_of(edited["root"]["children"][3]);
-  expect_prediction(version_of(base), version_of(edited), hills_grid(), "hills",
-                    only_faint_fringe({grown}));
+  expect_local_prediction(version_of(base), version_of(edited), hills_grid(), "hills",
+                          only_faint_fringe({grown}));
 }
 
 TEST(SceneChange, RaisingADiscMakesGray16AndMeshesGlobalWhenTheirQuantisationMoves) {
@@ -381,8 +396,8 @@ TEST(SceneChange, RaisingADiscMakesGray16AndMeshesGlobalWhenTheirQuantisationMov
   EXPECT_FALSE(change.format_global(TileFormat::geotiff));
   EXPECT_FALSE(change.format_global(TileFormat::terrain_rgb));
   EXPECT_FALSE(change.everything());
-  expect_prediction(a, b, hills_grid(), "hills",
-                    only_faint_fringe({disc_of(base["root"]["children"][2])}));
+  expect_local_prediction(a, b, hills_grid(), "hills",
+                          only_faint_fringe({disc_of(base["root"]["children"][2])}));
 
   // A smaller rise keeps the scene's range, hence every quantisation: only local tiles change.
   json lower = base;
@@ -400,16 +415,16 @@ TEST(SceneChange, AddingADiscInTheMiddleOfABlendChangesOnlyWhereItWeighs) {
       R"({"type": "disc", "center": [-300.5, -1500.5], "radius": 377.7, "elevation": 300})");
   auto& children = edited["root"]["children"];
   children.insert(children.begin() + 2, added);
-  expect_prediction(version_of(base), version_of(edited), hills_grid(), "hills",
-                    only_faint_fringe({disc_of(added)}));
+  expect_local_prediction(version_of(base), version_of(edited), hills_grid(), "hills",
+                          only_faint_fringe({disc_of(added)}));
 }
 
 TEST(SceneChange, RemovingADiscFromABlendChangesOnlyWhereItWeighed) {
   const json base = json::parse(kHills);
   json edited = base;
   edited["root"]["children"].erase(edited["root"]["children"].begin() + 4);
-  expect_prediction(version_of(base), version_of(edited), hills_grid(), "hills",
-                    only_faint_fringe({disc_of(base["root"]["children"][4])}));
+  expect_local_prediction(version_of(base), version_of(edited), hills_grid(), "hills",
+                          only_faint_fringe({disc_of(base["root"]["children"][4])}));
 }
 
 // A disc of the transformed blend, in the root frame: rotate 33°, scale 1.25, then translate.
@@ -428,8 +443,8 @@ TEST(SceneChange, EditingInsideATransformChangesOnlyWhereTheEditedDiscLies) {
   inner["elevation"] = 170;
   const Disc old_disc = transformed(base["root"]["children"][5]["children"][0]["children"][1]);
   const Disc new_disc = transformed(inner);
-  expect_prediction(version_of(base), version_of(edited), hills_grid(), "hills",
-                    only_faint_fringe({old_disc, new_disc}));
+  expect_local_prediction(version_of(base), version_of(edited), hills_grid(), "hills",
+                          only_faint_fringe({old_disc, new_disc}));
 }
 
 TEST(SceneChange, EditingInsideANoiseWarpChangesOnlyNearTheWarpedDisc) {
@@ -440,13 +455,13 @@ TEST(SceneChange, EditingInsideANoiseWarpChangesOnlyNearTheWarpedDisc) {
   // predicted tile that did not change must still come within that of the disc's circle.
   Disc reach = disc_of(base["root"]["children"][6]["children"][0]);
   reach.radius += 80.0;
-  expect_prediction(version_of(base), version_of(edited), hills_grid(), "hills",
-                    [reach](const HeightTile& t) {
-                      for (std::size_t i = 0; i < t.scene_x.size(); ++i) {
-                        if (reach.weight(t.scene_x[i], t.scene_y[i]) > 0.0) return true;
-                      }
-                      return false;
-                    });
+  expect_local_prediction(version_of(base), version_of(edited), hills_grid(), "hills",
+                          [reach](const HeightTile& t) {
+                            for (std::size_t i = 0; i < t.scene_x.size(); ++i) {
+                              if (reach.weight(t.scene_x[i], t.scene_y[i]) > 0.0) return true;
+                            }
+                            return false;
+                          });
 }
 
 TEST(SceneChange, SceneWideFieldsChangeEveryTile) {
@@ -517,6 +532,7 @@ TEST(SceneChange, MovingOneHillOfAManyHillBlendLeavesEveryOtherTileIdentical) {
   const TileGrid grid = local_grid({3}, {TileFormat::geotiff, TileFormat::terrain_rgb});
   const Counts counts = expect_prediction(version_of(base), version_of(edited), grid, "river",
                                           only_faint_fringe({old_hill, new_hill}));
+  EXPECT_GT(counts.changed, 0u);
   EXPECT_LT(counts.predicted, 64u);
 }
 
@@ -574,15 +590,15 @@ TEST(SceneChange, AnEditThatMovesAChildInTheBlendOrderCountsWhereverTheChildWeig
       pair.push_back(disc);
     }
   }
-  expect_prediction(a, b, local_grid({3}, {TileFormat::geotiff}), "order",
-                    [pair](const HeightTile& t) {
-                      for (std::size_t i = 0; i < t.scene_x.size(); ++i) {
-                        for (const Disc& d : pair) {
-                          if (d.weight(t.scene_x[i], t.scene_y[i]) > 0.0) return true;
-                        }
-                      }
-                      return false;
-                    });
+  expect_local_prediction(a, b, local_grid({3}, {TileFormat::geotiff}), "order",
+                          [pair](const HeightTile& t) {
+                            for (std::size_t i = 0; i < t.scene_x.size(); ++i) {
+                              for (const Disc& d : pair) {
+                                if (d.weight(t.scene_x[i], t.scene_y[i]) > 0.0) return true;
+                              }
+                            }
+                            return false;
+                          });
 }
 
 TEST(SceneChange, EditingACurvePointChangesOnlyTilesTheCurveReaches) {
@@ -665,8 +681,8 @@ TEST(SceneChange, MovingTheWaterChangesOnlyQuantizedMeshTilesWhereWaterIs) {
   EXPECT_GT(predicted, 0u);
   EXPECT_LT(predicted, grid.addresses.size());
   // A tile predicted in vain lies where water is (where the mask depends on the terrain too).
-  expect_prediction(a, b, grid, "lake",
-                    near_wet_water({disc_of(base["water"]), disc_of(edited["water"])}));
+  expect_local_prediction(a, b, grid, "lake",
+                          near_wet_water({disc_of(base["water"]), disc_of(edited["water"])}));
   // Without the water mask extension the meshes do not change either.
   ProductOptions plain = grid.options;
   plain.watermask = false;
@@ -687,7 +703,7 @@ TEST(SceneChange, RemovingTheWaterChangesTheMaskWhereItWas) {
   EXPECT_TRUE(
       change.changed_tiles(TileScheme::geographic, 14, TileFormat::geotiff, grid.options, 100)
           .empty());
-  expect_prediction(a, b, grid, "lake", near_wet_water({disc_of(base["water"])}));
+  expect_local_prediction(a, b, grid, "lake", near_wet_water({disc_of(base["water"])}));
 }
 
 TEST(SceneChange, RaisingALakeBedChangesTheMaskWhereBothAre) {
@@ -696,8 +712,8 @@ TEST(SceneChange, RaisingALakeBedChangesTheMaskWhereBothAre) {
   edited["root"]["children"][1]["elevation"] = 112;  // the lake bed rises above the water
   const Version a = version_of(base), b = version_of(edited);
   const TileGrid grid = area_grid(a, TileScheme::geographic, 14, {TileFormat::quantized_mesh});
-  expect_prediction(a, b, grid, "lake-mesh",
-                    only_faint_fringe({disc_of(base["root"]["children"][1])}));
+  expect_local_prediction(a, b, grid, "lake-mesh",
+                          only_faint_fringe({disc_of(base["root"]["children"][1])}));
 }
 
 }  // namespace
