@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cassert>
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -22,9 +23,11 @@
 #include "planet/continent_map.hpp"
 #include "planet/definition.hpp"
 #include "planet/tiles.hpp"
+#include "server/log.hpp"
 #include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/json_text.hpp"
+#include "terrain/node.hpp"
 #include "terrain/program.hpp"
 #include "terrain/sphere_trace.hpp"
 #include "terrain/tile_products.hpp"
@@ -57,9 +60,6 @@ constexpr std::size_t kMakersPerThread = 8;  // per-thread product makers (evalu
 // are asked for, trimmed beyond that), so fewer of those.
 constexpr std::size_t kLoadedPlanets = 16;
 constexpr std::size_t kPlanetWorkersPerThread = 4;
-constexpr const char* kImmutable = "public, max-age=31536000, immutable";
-// "default" names whatever config/planets/default.json holds, which a restart may change.
-constexpr const char* kAliasCacheControl = "public, max-age=60, must-revalidate";
 
 std::string quote(std::string_view s) {
   return "\"" + std::string(s) + "\"";
@@ -178,6 +178,9 @@ http::status store_status(const StoreError& e) {
 }
 
 using detail::store_problem;
+using detail::cache_policy;
+using detail::kAliasCacheControl;
+using detail::kImmutable;
 
 std::string version_etag(const SceneVersion& v) {
   return quote(v.hash);
@@ -207,8 +210,10 @@ bool etag_matches(const Request& request, std::string_view etag) {
   return none_match_names(if_none_match(request), etag);
 }
 
+// The bytes' hash, under the product generation that made them.
 std::string product_etag(std::string_view body) {
-  return quote(terrain::sha256_hex(body).substr(0, 32));
+  return quote("g" + std::to_string(terrain::kProductGeneration) + "-" +
+               terrain::sha256_hex(body).substr(0, 32));
 }
 
 // A JSON product from its text: gzipped when the client takes it and it is worth it, a strong
@@ -307,10 +312,7 @@ terrain::Result<TileQuery, Response> parse_tile_query(
   q.encoding = get("encoding");
   Result<terrain::TileFormat> format = terrain::parse_tile_format(q.extension, q.encoding);
   if (!format) {
-    return problem(
-        request,
-        format.error().pointer == "/format" ? http::status::not_found : http::status::bad_request,
-        "Unknown format", format.error().message, format.error().pointer);
+    return problem(request, "Unknown format", format.error());
   }
   q.format = *format;
   const terrain::TileFormatInfo& info = terrain::format_info(q.format);
@@ -531,6 +533,34 @@ Response problem(const Request& request, http::status status, std::string_view t
   return r;
 }
 
+http::status status_of(terrain::ErrorKind kind) {
+  switch (kind) {
+    case terrain::ErrorKind::invalid:
+      return http::status::bad_request;
+    case terrain::ErrorKind::not_found:
+      return http::status::not_found;
+    case terrain::ErrorKind::unsupported:
+      return http::status::unprocessable_entity;
+    case terrain::ErrorKind::internal:
+      return http::status::internal_server_error;
+  }
+  assert(false && "unknown error kind");
+  return http::status::internal_server_error;
+}
+
+Response problem(const Request& request, std::string_view title, const terrain::Error& error) {
+  const http::status status = status_of(error.kind);
+  if (error.kind == terrain::ErrorKind::internal) {
+    log(LogLevel::error, "internal error",
+        {{"target",
+          escape_invalid_utf8(std::string_view(request.target().data(), request.target().size()))},
+         {"message", escape_invalid_utf8(error.message)},
+         {"pointer", escape_invalid_utf8(error.pointer)}});
+    return problem(request, status, "Internal error", error.message, error.pointer);
+  }
+  return problem(request, status, title, error.message, error.pointer);
+}
+
 // JSON answers are gzipped when the client accepts it and the body is worth compressing.
 Response detail::json_response(const Request& request, http::status status, const json& body,
                                std::string_view media_type) {
@@ -614,45 +644,60 @@ App::App(Config config, std::unique_ptr<Store> store)
 
 std::string_view App::route_label(const Request& request) {
   const std::string_view t(request.target().data(), request.target().size());
-  const std::string_view path = t.substr(0, t.find('?'));
-  if (path == "/healthz") return "healthz";
-  if (path == "/metrics") return "metrics";
-  if (!path.starts_with("/api/")) return "client";  // the browser client's files
-  if (!path.starts_with("/api/v1/")) return "other";
-  if (path.starts_with("/api/v1/glsl/")) return "glsl";
-  if (path == "/api/v1/planets") return "planets";
-  if (path.starts_with("/api/v1/planets/")) {
-    static constexpr std::array<std::pair<std::string_view, std::string_view>, 5> planet_kinds = {{
-        {"/tiles/", "planet_tiles"},
-        {"/mesh/", "planet_mesh"},
-        {"/sample", "planet_sample"},
-        {"/tilejson.json", "planet_tilejson.json"},
-        {"/layer.json", "planet_layer.json"},
-    }};
-    for (const auto& [part, label] : planet_kinds) {
-      if (path.find(part) != std::string_view::npos) return label;
+  std::string_view path = t.substr(0, t.find('?'));
+  // The label is read off the segments' positions, never by searching the path: a scene named
+  // "sample" is a scene, not the sample route.
+  std::array<std::string_view, 5> s{};
+  std::size_t n = 0;
+  while (!path.empty()) {
+    const std::size_t slash = path.find('/');
+    const std::string_view segment = path.substr(0, slash);
+    if (!segment.empty()) {
+      if (n < s.size()) s[n] = segment;
+      ++n;
+    }
+    if (slash == std::string_view::npos) break;
+    path.remove_prefix(slash + 1);
+  }
+  if (n == 1 && s[0] == "healthz") return "healthz";
+  if (n == 1 && s[0] == "metrics") return "metrics";
+  if (n == 0 || s[0] != "api") return "client";  // the browser client's files
+  if (n < 2 || s[1] != "v1") return "other";
+  if (n == 2) return "other";
+  if (s[2] == "glsl") return "glsl";
+  if (s[2] == "node-types") return "node_types";
+  if (s[2] == "openapi.json") return "openapi";
+  if (s[2] == "images") return "images";
+  // A scene's or a planet's products, by the segment after its ref.
+  static constexpr std::array<std::string_view, 12> kSceneProducts = {
+      "tiles",       "live",     "changes", "render.png", "depth.bin",     "trace.json",
+      "mesh",        "versions", "program", "sample",     "tilejson.json", "layer.json"};
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 5> kPlanetProducts =
+      {{{"tiles", "planet_tiles"},
+        {"mesh", "planet_mesh"},
+        {"sample", "planet_sample"},
+        {"tilejson.json", "planet_tilejson.json"},
+        {"layer.json", "planet_layer.json"}}};
+  if (s[2] == "planets") {
+    if (n == 3) return "planets";
+    if (n == 4) return "planet";
+    for (const auto& [product, label] : kPlanetProducts) {
+      if (s[4] == product) return label;
     }
     return "planet";
   }
-  static constexpr std::array<std::pair<std::string_view, std::string_view>, 12> kinds = {{
-      {"/tiles/", "tiles"},
-      {"/live", "live"},
-      {"/changes", "changes"},
-      {"/render.png", "render"},
-      {"/depth.bin", "depth"},
-      {"/trace.json", "trace.json"},
-      {"/mesh/", "mesh"},
-      {"/versions", "versions"},
-      {"/program", "program"},
-      {"/sample", "sample"},
-      {"/tilejson.json", "tilejson.json"},
-      {"/layer.json", "layer.json"},
-  }};
-  for (const auto& [part, label] : kinds) {
-    if (path.find(part) != std::string_view::npos) return label;
+  if (s[2] == "scenes") {
+    if (n == 3) return "scenes";
+    if (n == 4) return "scene";
+    for (std::string_view product : kSceneProducts) {
+      if (s[4] != product) continue;
+      if (product == "render.png") return "render";
+      if (product == "depth.bin") return "depth";
+      return product;
+    }
+    return "scene";
   }
-  if (path.starts_with("/api/v1/images")) return "images";
-  return path == "/api/v1/scenes" ? "scenes" : "scene";
+  return "other";
 }
 
 void App::add_cors(const Request& request, Response& response) const {
@@ -808,6 +853,10 @@ Outcome App::route(const Request& request, const Target& target) {
     if (s.size() == 4 && s[2] == "glsl" && s[3] == "trace.glsl") {
       if (!read) return not_allowed("GET, HEAD");
       return trace_glsl(request);
+    }
+    if (s.size() == 3 && s[2] == "node-types") {
+      if (!read) return not_allowed("GET, HEAD");
+      return node_types(request);
     }
     if (s.size() == 3 && s[2] == "images") {
       if (method != http::verb::post) return not_allowed("POST");
@@ -1139,7 +1188,7 @@ Response App::get_scene(const Request& request, const std::string& ref) {
   auto cache_headers = [&](Response& r) {
     r.set(http::field::etag, etag);
     r.set(http::field::cache_control,
-          pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate");
+          cache_policy(pinned));
   };
   if (etag_matches(request, etag)) {
     Response r = make_response(request, http::status::not_modified, "", "application/json");
@@ -1210,7 +1259,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   const std::string id = loaded.version.scene_id;
   const std::string pinned_ref = id + "@" + std::to_string(loaded.version.version);
   const std::string cache_control =
-      pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate";
+      cache_policy(pinned);
   const terrain::Program& program = *loaded.source->terrain;
 
   // JSON products are products too: a strong ETag of the bytes sent (so the gzipped and the
@@ -1394,8 +1443,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     if (!product) {
       Request shadow{http::verb::get, "/", version};
       shadow.keep_alive(keep_alive);
-      return problem(shadow, http::status::bad_request, "Bad tile request", product.error().message,
-                     product.error().pointer);
+      return problem(shadow, "Bad tile request", product.error());
     }
     auto cached = std::make_shared<CachedProduct>();
     cached->body.assign(product->bytes.begin(), product->bytes.end());
@@ -1494,7 +1542,7 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
       bits(camera.target.z) + bits(camera.vertical_fov_degrees) + bits(options.water_level) + "/" +
       std::to_string(config_.picture_steps_per_pixel);
   const ReplyContext reply =
-      ReplyContext::of(request, pinned ? kImmutable : "public, max-age=5, must-revalidate");
+      ReplyContext::of(request, cache_policy(pinned));
   auto respond = [reply, depth, width, height](const std::shared_ptr<const CachedProduct>& p) {
     Response r = product_response(reply, p);
     if (depth) r.set("X-Picture-Size", std::to_string(width) + "x" + std::to_string(height));
@@ -2072,8 +2120,7 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
         "planet_" + std::string(info.encoding.empty() ? info.extension : info.encoding),
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "cpu");
     if (!product) {
-      return problem(reply.shadow(), http::status::bad_request, "Bad tile request",
-                     product.error().message, product.error().pointer);
+      return problem(reply.shadow(), "Bad tile request", product.error());
     }
     auto cached = std::make_shared<CachedProduct>();
     cached->body.assign(product->bytes.begin(), product->bytes.end());
@@ -2087,6 +2134,30 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
     return product_response(reply, cached);
   };
   return deferred;
+}
+
+Response App::node_types(const Request& request) const {
+  // The registry, for clients that build or edit scenes (the browser's editor picks what it can
+  // move by category): the same list the parser, the compiler and the shaders are driven by.
+  static const std::string text = [] {
+    json types = json::array();
+    for (const terrain::NodeType* type : terrain::node_types()) {
+      static constexpr const char* kCategories[] = {"primitive", "blend", "binary", "warp"};
+      json entry{
+          {"id", type->id},
+          {"name", type->name},
+          {"category", kCategories[static_cast<int>(type->category)]},
+          {"min_children", type->min_children},
+          {"summary", type->summary},
+          {"gpu", type->category == terrain::NodeCategory::blend || type->shader.implemented()},
+          {"example", json::parse(type->example_json)}};
+      entry["max_children"] =
+          type->max_children == 0xffff ? json(nullptr) : json(type->max_children);
+      types.push_back(std::move(entry));
+    }
+    return json{{"node_types", std::move(types)}}.dump();
+  }();
+  return json_text_response(request, text, "public, max-age=60");
 }
 
 Response App::trace_glsl(const Request& request) const {
@@ -2116,7 +2187,7 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
   const std::string key = loaded.version.hash + "|trace.json|" + loaded.version.scene_id + "@" +
                           std::to_string(loaded.version.version);
   const std::string cache_control =
-      pinned ? "public, max-age=31536000, immutable" : "public, max-age=5, must-revalidate";
+      cache_policy(pinned);
   Request shadow{http::verb::get, "/", request.version()};
   shadow.keep_alive(request.keep_alive());
   for (const http::field f : {http::field::accept_encoding, http::field::if_none_match}) {
@@ -2191,7 +2262,16 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
   return deferred;
 }
 
-std::shared_ptr<const CachedProduct> App::find_shared(const std::string& key) {
+// The caches shared with other processes and other versions of the server hold a product under
+// the generation that made it: a server of another generation neither reads nor overwrites it.
+namespace {
+std::string shared_key(const std::string& key) {
+  return "g" + std::to_string(terrain::kProductGeneration) + "/" + key;
+}
+}  // namespace
+
+std::shared_ptr<const CachedProduct> App::find_shared(const std::string& product_key) {
+  const std::string key = shared_key(product_key);
   if (disk_cache_) {
     if (auto hit = disk_cache_->find(key)) return hit;
   }
@@ -2204,7 +2284,8 @@ std::shared_ptr<const CachedProduct> App::find_shared(const std::string& key) {
   return nullptr;
 }
 
-void App::store_shared(const std::string& key, const CachedProduct& product) {
+void App::store_shared(const std::string& product_key, const CachedProduct& product) {
+  const std::string key = shared_key(product_key);
   if (disk_cache_) disk_cache_->insert(key, product);
   if (redis_) redis_->insert(key, product);
 }

@@ -642,7 +642,7 @@ Response App::scene_changes(const Request& request, const std::string& id, const
   body["truncated"] = truncated;
   Response r = detail::json_response(request, http::status::ok, body);
   // Both versions are immutable, so is what differs between them.
-  r.set(http::field::cache_control, "public, max-age=31536000, immutable");
+  r.set(http::field::cache_control, detail::kImmutable);
   return r;
 }
 

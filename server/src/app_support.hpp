@@ -30,6 +30,17 @@ struct App::Target {
 
 namespace server::detail {
 
+/// Cache policies. A pinned version (`id@3`, `id@sha256:…`) never changes: immutable.
+inline constexpr const char* kImmutable = "public, max-age=31536000, immutable";
+/// A head ref (`id`) moves with every new version: a short life, then revalidation.
+inline constexpr const char* kHeadCacheControl = "public, max-age=5, must-revalidate";
+/// "default" names whatever config/planets/default.json holds, which a restart may change.
+inline constexpr const char* kAliasCacheControl = "public, max-age=60, must-revalidate";
+/// The policy of a product of a pinned version or of a head ref.
+inline const char* cache_policy(bool pinned) {
+  return pinned ? kImmutable : kHeadCacheControl;
+}
+
 /// JSON the server reads back (stored rows, events from other replicas) with the same bounds as
 /// request bodies (terrain::parse_json_text); a discarded value when refused.
 nlohmann::json parse_bounded_json(std::string_view text);

@@ -55,7 +55,7 @@ Result<TileFormat> parse_tile_format(std::string_view extension, std::string_vie
   if (!extension_known) {
     return Error{"unknown tile format '" + std::string(extension) +
                      "' (expected png, tif, terrain, glb or drc)",
-                 "/format"};
+                 "/format", ErrorKind::not_found};
   }
   if (extension == "png") {
     return Error{"unknown PNG encoding '" + std::string(encoding) +
@@ -237,7 +237,7 @@ Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address
   if (format == TileFormat::quantized_mesh) {
     if (options.watermask) {
       Result<std::vector<std::uint8_t>> mask = generator_.water_mask(scheme, address);
-      if (!mask) return mask.error();
+      if (!mask) return internal_error(mask.error());
       extras.water_mask = std::move(*mask);
     }
     if (options.metadata) {
@@ -249,9 +249,12 @@ Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address
               .dump();
     }
   }
+  // The request was validated with the tile: what the encoders refuse now is what this module
+  // made, a fault of its own.
   Result<Product> product = encode_product(*generated, format, options, constants_,
                                            generator_.source().georeference, std::move(extras));
-  if (product) product->backend = generator_.last_backend();
+  if (!product) return internal_error(product.error());
+  product->backend = generator_.last_backend();
   return product;
 }
 

@@ -8,6 +8,7 @@
 
 #include "planet/definition.hpp"
 #include "server/app.hpp"
+#include "terrain/node.hpp"
 
 namespace server {
 
@@ -51,6 +52,44 @@ class AppTest : public ::testing::Test {
   static inline fs::path dir_;
   static inline App* app_ = nullptr;
 };
+
+TEST(ErrorKinds, EachKindHasItsStatusAndAnInternalErrorIsNotTheCallersFault) {
+  EXPECT_EQ(status_of(terrain::ErrorKind::invalid), http::status::bad_request);
+  EXPECT_EQ(status_of(terrain::ErrorKind::not_found), http::status::not_found);
+  EXPECT_EQ(status_of(terrain::ErrorKind::unsupported), http::status::unprocessable_entity);
+  EXPECT_EQ(status_of(terrain::ErrorKind::internal), http::status::internal_server_error);
+  const Request request{http::verb::get, "/x", 11};
+  const Response fault = problem(request, "Bad tile request",
+                                 terrain::internal_error({"cannot encode GeoTIFF", "/bounds"}));
+  EXPECT_EQ(fault.result(), http::status::internal_server_error);
+  const auto body = nlohmann::json::parse(fault.body().view());
+  EXPECT_EQ(body["title"], "Internal error");
+  EXPECT_EQ(body["pointer"], "/bounds");
+  const Response refusal = problem(
+      request, "Unknown format", {"unknown tile format", "/format", terrain::ErrorKind::not_found});
+  EXPECT_EQ(refusal.result(), http::status::not_found);
+}
+
+TEST_F(AppTest, AnUnknownTileFormatIs404AndAnUnknownEncoding400) {
+  EXPECT_EQ(get("/api/v1/scenes/craters@1/tiles/0/0/0.jpg").result(), http::status::not_found);
+  EXPECT_EQ(get("/api/v1/scenes/craters@1/tiles/0/0/0.png?encoding=rainbow").result(),
+            http::status::bad_request);
+}
+
+TEST_F(AppTest, NodeTypesAreTheRegistrysOwn) {
+  const Response r = get("/api/v1/node-types");
+  ASSERT_EQ(r.result(), http::status::ok) << r.body().view();
+  const auto listed = nlohmann::json::parse(r.body().view()).at("node_types");
+  ASSERT_EQ(listed.size(), terrain::node_types().size());
+  for (std::size_t i = 0; i < listed.size(); ++i) {
+    const terrain::NodeType& type = *terrain::node_types()[i];
+    EXPECT_EQ(listed[i]["name"], type.name);
+    EXPECT_EQ(listed[i]["id"], type.id);
+    EXPECT_EQ(listed[i]["category"] == "primitive",
+              type.category == terrain::NodeCategory::primitive);
+    EXPECT_EQ(listed[i]["example"], nlohmann::json::parse(type.example_json));
+  }
+}
 
 // The example pages for standard clients sit in a folder of the client: its address, with or
 // without the slash, reaches its index page, whose links are relative.
@@ -130,6 +169,29 @@ TEST_F(AppTest, PlanetRoutesHaveMetricLabelsOfTheirOwn) {
   EXPECT_EQ(label("/api/v1/planets/default/layer.json"), "planet_layer.json");
   EXPECT_EQ(label("/api/v1/planets/default/tilejson.json"), "planet_tilejson.json");
   EXPECT_EQ(label("/api/v1/scenes/craters/tiles/1/1/0.png"), "tiles");
+}
+
+// Labels come from where a segment stands, never from a search of the path: scenes named like a
+// product are scenes, and their products are counted as such.
+TEST_F(AppTest, RouteLabelsFollowSegmentPositionsNotSubstrings) {
+  auto label = [](const std::string& target) {
+    return std::string(App::route_label(Request{http::verb::get, target, 11}));
+  };
+  EXPECT_EQ(label("/api/v1/scenes/sample"), "scene");
+  EXPECT_EQ(label("/api/v1/scenes/live-demo"), "scene");
+  EXPECT_EQ(label("/api/v1/scenes/tiles@2"), "scene");
+  EXPECT_EQ(label("/api/v1/scenes/sample/sample?x=1&y=2"), "sample");
+  EXPECT_EQ(label("/api/v1/scenes/live-demo/live"), "live");
+  EXPECT_EQ(label("/api/v1/scenes/mesh/tiles/1/0/0.png"), "tiles");
+  EXPECT_EQ(label("/api/v1/scenes/a/render.png?width=4"), "render");
+  EXPECT_EQ(label("/api/v1/scenes/a/depth.bin"), "depth");
+  EXPECT_EQ(label("/api/v1/scenes/a/versions"), "versions");
+  EXPECT_EQ(label("/api/v1/scenes"), "scenes");
+  EXPECT_EQ(label("/api/v1/planets/layer.json"), "planet");
+  EXPECT_EQ(label("/api/v1/images"), "images");
+  EXPECT_EQ(label("/api/v1/node-types"), "node_types");
+  EXPECT_EQ(label("/js/main.js"), "client");
+  EXPECT_EQ(label("/healthz"), "healthz");
 }
 
 // The built-in default planet is stored at start and "default" names it.

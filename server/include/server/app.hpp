@@ -146,6 +146,7 @@ class App {
                  PictureProduct product);
   Outcome trace_bundle(const Request& request, const LoadedVersion& loaded, bool pinned);
   Response trace_glsl(const Request& request) const;
+  Response node_types(const Request& request) const;
   bool token_matches(std::string_view given) const;  // constant time
   Response scene_changes(const Request& request, const std::string& id, const Target& target);
 

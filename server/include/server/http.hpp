@@ -4,6 +4,7 @@
 #include <boost/beast/http.hpp>
 
 #include "server/sealed_file.hpp"
+#include "terrain/result.hpp"
 
 #include <atomic>
 #include <functional>
@@ -79,6 +80,13 @@ using Response = http::response<PayloadBody>;
 /// by JSON pointer when there is one.
 Response problem(const Request& request, http::status status, std::string_view title,
                  std::string_view detail, std::string_view pointer = "");
+
+/// The status that answers an error of this kind: the one place where kinds become statuses.
+http::status status_of(terrain::ErrorKind kind);
+
+/// The problem response for an error from a module: its kind picks the status, `title` names a
+/// refusal; an internal error is logged and answered 500 "Internal error" instead.
+Response problem(const Request& request, std::string_view title, const terrain::Error& error);
 
 /// `text` with every byte that does not start a well-formed UTF-8 sequence written as `\xHH`:
 /// what an answer may echo of a client's bytes.

@@ -9,11 +9,27 @@
 
 namespace terrain {
 
+/// Whose fault an error is, so that a caller answering with a status picks it from the kind and
+/// never from the message or the pointer.
+enum class ErrorKind {
+  invalid,      ///< the input is malformed or out of range
+  not_found,    ///< the input names something that does not exist (a format, a file)
+  unsupported,  ///< well-formed, but asks for what this build or scheme does not offer
+  internal,     ///< a contract inside broke or a dependency failed: not the caller's fault
+};
+
 /// Why an input was refused, and where (RFC 6901 JSON pointer, "" for the whole document).
 struct Error {
   std::string message;
   std::string pointer;
+  ErrorKind kind = ErrorKind::invalid;
 };
+
+/// The same error, marked as the callee's fault (an encoder failing on what the module made).
+inline Error internal_error(Error error) {
+  error.kind = ErrorKind::internal;
+  return error;
+}
 
 /// A value or an error; E defaults to Error (message + JSON pointer), other modules may carry
 /// their own error type (a store's "not found" or "conflict", say).

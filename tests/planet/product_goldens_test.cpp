@@ -1,0 +1,49 @@
+// The default planet's tiles in every format, pinned by the SHA-256 of their bytes
+// (goldens/planet_products.json; accept new ones with scripts/accept-product-goldens.sh).
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "../product_goldens.hpp"
+#include "planet/definition.hpp"
+#include "planet/planet.hpp"
+#include "planet/tiles.hpp"
+
+namespace planet {
+namespace {
+
+using terrain::TileAddress;
+using terrain::TileFormatInfo;
+using terrain::TileScheme;
+
+TEST(ProductGoldens, TheDefaultPlanetMakesTheBytesOfItsGeneration) {
+  auto definition = load_planet_file(TERRAIN_SOURCE_DIR "/config/planets/default.json");
+  ASSERT_TRUE(definition.ok()) << definition.error().message;
+  PlanetTiles tiles(Planet::create(*definition));
+  // A continent from afar, a coast at zoom 6 and land at zoom 9 (the geographic grid), and the
+  // Web Mercator tiles MapLibre asks for.
+  const std::pair<TileScheme, TileAddress> places[] = {
+      {TileScheme::geographic, {3, 9, 5}},
+      {TileScheme::geographic, {6, 70, 40}},
+      {TileScheme::geographic, {9, 600, 300}},
+      {TileScheme::webmercator, {5, 17, 11}},
+  };
+  terrain::testing::ProductHashes made;
+  for (const auto& [scheme, a] : places) {
+    for (const TileFormatInfo& info : terrain::tile_formats()) {
+      if (info.mesh && scheme != TileScheme::geographic) continue;
+      std::string name = std::string(terrain::scheme_name(scheme)) + "-" + std::to_string(a.z) +
+                         "-" + std::to_string(a.x) + "-" + std::to_string(a.y) + "." +
+                         std::string(info.extension);
+      if (!info.encoding.empty()) name += "?encoding=" + std::string(info.encoding);
+      Result<terrain::Product> product = tiles.make(scheme, a, info.format, {});
+      ASSERT_TRUE(product.ok()) << name << ": " << product.error().message;
+      made[name] = terrain::testing::hash_of(product->bytes);
+    }
+  }
+  terrain::testing::check_product_goldens(
+      TERRAIN_SOURCE_DIR "/tests/planet/goldens/planet_products.json", made);
+}
+
+}  // namespace
+}  // namespace planet

@@ -1,0 +1,66 @@
+// Product goldens: the SHA-256 of products' bytes, kept in a JSON file beside the test with the
+// product generation (terrain::kProductGeneration) that made them. A test compares what the code
+// makes now with the file; scripts/accept-product-goldens.sh rewrites the file, and refuses new
+// hashes of existing products under the generation already recorded, since servers of one
+// generation must make the same bytes (shared caches and ETags carry the generation).
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "terrain/scene.hpp"
+#include "terrain/tile_products.hpp"
+
+namespace terrain::testing {
+
+/// Product name ("butte/local-1-0-0.png?encoding=terrarium") → SHA-256 of its bytes.
+using ProductHashes = std::map<std::string, std::string>;
+
+inline std::string hash_of(const std::vector<std::uint8_t>& bytes) {
+  return sha256_hex(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
+/// Compares `made` with the golden file, or, when TERRAIN_ACCEPT_GOLDENS is set, writes it.
+inline void check_product_goldens(const std::string& file, const ProductHashes& made) {
+  nlohmann::json golden = nlohmann::json::object();
+  if (std::ifstream in(file); in) golden = nlohmann::json::parse(in, nullptr, false);
+  ASSERT_FALSE(golden.is_discarded()) << file << " is not JSON";
+  const int recorded = golden.value("generation", 0);
+  const nlohmann::json hashes = golden.value("products", nlohmann::json::object());
+
+  std::ostringstream changed;
+  for (const auto& [name, hash] : made) {
+    if (hashes.contains(name) && hashes[name] != hash) changed << "\n  " << name;
+  }
+  if (std::getenv("TERRAIN_ACCEPT_GOLDENS") != nullptr) {
+    ASSERT_TRUE(changed.str().empty() || recorded != kProductGeneration)
+        << "these products' bytes changed under product generation " << recorded
+        << ": raise terrain::kProductGeneration (tile_products.hpp), then accept again:"
+        << changed.str();
+    nlohmann::json out{{"generation", kProductGeneration}, {"products", made}};
+    std::ofstream(file) << out.dump(2) << "\n";
+    return;
+  }
+  ASSERT_EQ(recorded, kProductGeneration)
+      << file << " holds generation " << recorded << "; the code makes generation "
+      << kProductGeneration << ": run scripts/accept-product-goldens.sh";
+  EXPECT_TRUE(changed.str().empty())
+      << "products' bytes changed: raise terrain::kProductGeneration, then run "
+         "scripts/accept-product-goldens.sh:"
+      << changed.str();
+  for (const auto& [name, hash] : made) {
+    EXPECT_TRUE(hashes.contains(name)) << name << " has no golden: accept it";
+  }
+  for (const auto& [name, hash] : hashes.items()) {
+    EXPECT_TRUE(made.contains(name)) << name << " is in the goldens but no longer made";
+  }
+}
+
+}  // namespace terrain::testing

@@ -1,0 +1,70 @@
+// Every example scene's tile in every format, pinned by the SHA-256 of its bytes
+// (goldens/scene_products.json; accept new ones with scripts/accept-product-goldens.sh).
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "../product_goldens.hpp"
+#include "example_tile_sources.hpp"
+#include "terrain/tile_products.hpp"
+
+namespace terrain {
+namespace {
+
+using testing::ProductHashes;
+
+const char* const kSceneNames[] = {"butte",      "craters",        "hills-river",
+                                   "lake-dunes", "mountain-range", "winding-road"};
+
+// The tile of the middle of the scene's area at zoom z of a scheme.
+TileAddress middle_tile(const TileSource& source, TileScheme scheme, int z) {
+  const TileRange r = tiles_covering_area(source, scheme, z);
+  return {z, (r.min_x + r.max_x) / 2, (r.min_y + r.max_y) / 2};
+}
+
+std::string product_name(const std::string& scene, TileScheme scheme, const TileAddress& a,
+                         const TileFormatInfo& info) {
+  std::string name = scene + "/" + std::string(scheme_name(scheme)) + "-" + std::to_string(a.z) +
+                     "-" + std::to_string(a.x) + "-" + std::to_string(a.y) + "." +
+                     std::string(info.extension);
+  if (!info.encoding.empty()) name += "?encoding=" + std::string(info.encoding);
+  return name;
+}
+
+TEST(ProductGoldens, EveryExampleSceneMakesTheBytesOfItsGeneration) {
+  ProductHashes made;
+  for (const char* scene : kSceneNames) {
+    ProductMaker maker(testing::example_source(scene));
+    const TileSource& source = maker.source();
+    // Each format where clients ask for it: meshes and images in the scene's own grid, images
+    // for MapLibre on Web Mercator, quantized-mesh on Cesium's geographic grid.
+    const TileAddress local = middle_tile(source, TileScheme::local, 1);
+    const int deep = maker.constants().max_useful_zoom[static_cast<int>(TileScheme::geographic)];
+    for (const TileFormatInfo& info : tile_formats()) {
+      std::vector<std::pair<TileScheme, TileAddress>> where;
+      if (info.format == TileFormat::quantized_mesh) {
+        where.push_back({TileScheme::geographic,
+                         middle_tile(source, TileScheme::geographic, std::max(deep - 3, 0))});
+      } else {
+        where.push_back({TileScheme::local, local});
+        if (!info.mesh) {
+          const int z =
+              maker.constants().max_useful_zoom[static_cast<int>(TileScheme::webmercator)];
+          where.push_back({TileScheme::webmercator,
+                           middle_tile(source, TileScheme::webmercator, std::max(z - 3, 0))});
+        }
+      }
+      for (const auto& [scheme, address] : where) {
+        const std::string name = product_name(scene, scheme, address, info);
+        Result<Product> product = maker.make(scheme, address, info.format, {});
+        ASSERT_TRUE(product.ok()) << name << ": " << product.error().message;
+        made[name] = testing::hash_of(product->bytes);
+      }
+    }
+  }
+  testing::check_product_goldens(TERRAIN_SOURCE_DIR "/tests/terrain/goldens/scene_products.json",
+                                 made);
+}
+
+}  // namespace
+}  // namespace terrain
