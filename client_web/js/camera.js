@@ -1,27 +1,10 @@
 // The viewer's camera: an eye and a target in scene metres (z up), driven by orbit or fly
 // controls, and written to / read from the URL so that a view can be shared.
 
+import { add, cross, length, normalise, scale, sub } from './vector.js';
+
 const UP = [0, 0, 1];
 
-export function sub(a, b) {
-  return [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-}
-export function add(a, b) {
-  return [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
-}
-export function scale(a, s) {
-  return [a[0] * s, a[1] * s, a[2] * s];
-}
-export function length(a) {
-  return Math.hypot(a[0], a[1], a[2]);
-}
-export function cross(a, b) {
-  return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-}
-export function normalise(a) {
-  const l = length(a);
-  return l > 0 ? scale(a, 1 / l) : [0, 0, 0];
-}
 
 export class Camera {
   constructor({ eye, target, fov = 50 }) {

@@ -1,45 +1,24 @@
 // Orbit and fly controls for a Camera: mouse, touch and keyboard. The controls only change the
 // camera; the viewer redraws when `onChange` says so.
-import { add, normalise, scale } from './camera.js';
+import { add, normalise, scale } from './vector.js';
+import { InputControls } from './input_controls.js';
 
 const ROTATE_PER_PIXEL = 0.005;
 const LOOK_PER_PIXEL = 0.003;
 
-export class Controls {
+export class Controls extends InputControls {
   /// `scaleHint()` gives a length in metres that sets pan and fly speeds (the scene's size).
   constructor(element, camera, { onChange, scaleHint }) {
-    this.element = element;
-    this.camera = camera;
+    super(element, camera, onChange);
     this.mode = 'orbit';
-    this.onChange = onChange;
     this.scaleHint = scaleHint;
-    this.keys = new Set();
-    this.pointers = new Map();
-    this.lastPinch = null;
-    this.listeners = [];
     this.listen(element, 'pointerdown', (e) => this.pointerDown(e));
     this.listen(element, 'pointermove', (e) => this.pointerMove(e));
     this.listen(element, 'pointerup', (e) => this.pointerUp(e));
     this.listen(element, 'pointercancel', (e) => this.pointerUp(e));
     this.listen(element, 'wheel', (e) => this.wheel(e), { passive: false });
-    this.listen(element, 'contextmenu', (e) => e.preventDefault());
     this.listen(window, 'keydown', (e) => this.keyDown(e));
-    this.listen(window, 'keyup', (e) => this.keys.delete(e.code));
-    this.listen(window, 'blur', () => this.keys.clear());
-  }
-
-  listen(target, type, handler, options) {
-    target.addEventListener(type, handler, options);
-    this.listeners.push(() => target.removeEventListener(type, handler, options));
-  }
-
-  dispose() {
-    for (const remove of this.listeners) remove();
-    this.listeners = [];
-  }
-
-  setCamera(camera) {
-    this.camera = camera;
+    this.listenForReleases();
   }
 
   setMode(mode) {

@@ -7,7 +7,8 @@
 // server applies it as written or rebases it onto versions that landed meanwhile.
 import { fetchJson } from './api.js';
 import {
-  applyReplaceOps, elevationOf, elevationOps, listPrimitives, moveOps, pickPrimitive, radiusOf, radiusOps, worldCentre,
+  applyReplaceOps, elevationOf, elevationOps, listPrimitives, moveOps, pickPrimitive, primitiveTypes, radiusOf, radiusOps,
+  worldCentre,
 } from './scene_edit.js';
 
 const TOKEN_KEY = 'terrain.writeToken';  // sessionStorage: typed once per tab
@@ -46,6 +47,7 @@ export class EditMode {
     this.queue = null;         // the edits' chain: one at a time
     this.acked = 0;            // the newest version one of our edits made
     this.primitives = [];
+    this.primitiveTypes = null;  // from the server's node registry, fetched with the first document
     this.selected = null;      // { pointer, instance } survives new versions
     this.drag = null;
     this.press = null;
@@ -149,6 +151,7 @@ export class EditMode {
     this.fetching = fetching;
     fetching.done = (async () => {
       try {
+        if (!this.primitiveTypes) this.primitiveTypes = primitiveTypes(await fetchJson('/api/v1/node-types'));
         const doc = await fetchJson(`/api/v1/scenes/${encodeURIComponent(scene)}@${version}`);
         if (this.host.sceneId() !== scene || (this.docScene === scene && this.docVersion >= version)) return;
         this.setDoc(scene, version, doc);
@@ -167,7 +170,7 @@ export class EditMode {
     this.doc = doc;
     this.docVersion = version;
     this.docScene = scene;
-    this.primitives = listPrimitives(doc);
+    this.primitives = listPrimitives(doc, this.primitiveTypes);
     this.render();
   }
 

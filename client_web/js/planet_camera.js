@@ -5,6 +5,8 @@
 // north) and tilt (degrees from looking straight down; 90 looks at the horizon). Everything is
 // double precision; planet_view.js turns it into float32 matrices relative to the eye.
 
+import { InputControls } from './input_controls.js';
+
 const DEG = Math.PI / 180;
 
 /// Geodesy on the planet's sphere or ellipsoid of revolution (equatorial radius `radius`,
@@ -131,17 +133,11 @@ export function writePlanetHash(planet, camera) {
 /// the altitude above the ground. Keys: arrows / W A S D move, Q E turn, R F tilt, + − zoom.
 /// `ground(camera)` gives the surface height (metres) under the camera as the loaded tiles know it;
 /// the camera never goes below it.
-export class GlobeControls {
+export class GlobeControls extends InputControls {
   constructor(element, camera, { onChange, radius, ground }) {
-    this.element = element;
-    this.camera = camera;
-    this.onChange = onChange;
+    super(element, camera, onChange);
     this.radius = radius;
     this.ground = ground;
-    this.keys = new Set();
-    this.pointers = new Map();
-    this.lastPinch = null;
-    this.listeners = [];
     this.listen(element, 'pointerdown', (e) => {
       element.setPointerCapture?.(e.pointerId);
       this.pointers.set(e.pointerId, { x: e.clientX, y: e.clientY, button: e.button, shift: e.shiftKey });
@@ -157,28 +153,12 @@ export class GlobeControls {
       this.zoom(Math.exp(e.deltaY * lines * 0.0015));
       this.changed();
     }, { passive: false });
-    this.listen(element, 'contextmenu', (e) => e.preventDefault());
     this.listen(window, 'keydown', (e) => {
       if (e.target instanceof HTMLInputElement || e.target instanceof HTMLSelectElement) return;
       this.keys.add(e.code);
       this.onChange('keys');
     });
-    this.listen(window, 'keyup', (e) => this.keys.delete(e.code));
-    this.listen(window, 'blur', () => this.keys.clear());
-  }
-
-  listen(target, type, handler, options) {
-    target.addEventListener(type, handler, options);
-    this.listeners.push(() => target.removeEventListener(type, handler, options));
-  }
-
-  dispose() {
-    for (const remove of this.listeners) remove();
-    this.listeners = [];
-  }
-
-  setCamera(camera) {
-    this.camera = camera;
+    this.listenForReleases();
   }
 
   /// Height of the camera above the ground under it (at least a metre).

@@ -23,166 +23,21 @@ import { ApiError, fetchJson } from './api.js';
 import { compileProgram, createPictureTarget, deletePictureTarget } from './gl.js';
 import { decodeQuantizedMesh } from './quantized_mesh.js';
 import { Geodesy } from './planet_camera.js';
+import { SKY_FS, SKY_VS, TERRAIN_FS, TERRAIN_VS } from './planet_shaders.js';
+import { curveMesh, GRID_CELLS, tileBounds, tileKey } from './planet_tiles.js';
+import { cross, dot, length as len, sub } from './vector.js';
+
+// Where the tests and other modules have always found it.
+export { tileBounds } from './planet_tiles.js';
 
 const MAX_SCREEN_ERROR = 2;     // pixels
 const MAX_FETCHES = 6;          // concurrent tile requests (a browser's per-host limit)
 const MAX_TILES = 300;          // decoded tiles kept (GPU buffers, water mask textures)
-const GRID_CELLS = 64;          // the server's default mesh grid: 65 samples a side
 const ATMOSPHERE = 80e3;        // metres: the sky and fog shell above the reference surface
 const FOG_SCALE = 700e3;        // metres of atmosphere that fog a surface by 1 − 1/e
 const RETRY_MS = 3000;          // a failed tile is asked for again after this
 const ACCEPT = 'application/vnd.quantized-mesh;extensions=octvertexnormals-watermask';
 const FLOATS_PER_VERTEX = 12;   // position 3, normal 3, up 3, uv 2, height 1
-
-const TERRAIN_VS = `#version 300 es
-precision highp float;
-layout(location = 0) in vec3 a_position;  // metres, relative to the tile's centre (ECEF axes)
-layout(location = 1) in vec3 a_normal;    // the surface normal (octvertexnormals)
-layout(location = 2) in vec3 a_up;        // the ellipsoid's up at the vertex
-layout(location = 3) in vec2 a_uv;        // 0..1 across the tile, v north
-layout(location = 4) in float a_height;   // metres above the reference surface, unclamped
-uniform mat4 u_mvp;        // projection × rotation × translate(centre − eye), the last in double
-uniform vec3 u_offset;     // centre − eye (float is plenty for fog and shading)
-out vec3 v_rel;            // position relative to the eye
-out vec3 v_normal;
-out vec3 v_up;
-out vec2 v_uv;
-out float v_height;
-out float v_w;
-void main() {
-  gl_Position = u_mvp * vec4(a_position, 1.0);
-  v_rel = u_offset + a_position;
-  v_normal = a_normal;
-  v_up = a_up;
-  v_uv = a_uv;
-  v_height = a_height;
-  v_w = 1.0 + gl_Position.w;
-}`;
-
-// Shared by the terrain and sky shaders: the length of a ray from the eye inside the
-// atmosphere's shell, up to `t_max`. The quadratic's constant (|C|² − r², with C the planet's
-// centre relative to the eye) comes from the CPU in double: in float it would cancel.
-const ATMOSPHERE_GLSL = `
-uniform vec3 u_centre;       // the planet's centre relative to the eye
-uniform float u_c_atmosphere; // |C|² − (R + atmosphere)²
-uniform float u_c_ground;     // |C|² − R²
-float shell_length(vec3 d, float t_max) {
-  float b = dot(d, u_centre);
-  float disc = b * b - u_c_atmosphere;
-  if (disc <= 0.0) return 0.0;
-  float s = sqrt(disc);
-  float t0 = max(b - s, 0.0);
-  float t1 = min(b + s, t_max);
-  return max(t1 - t0, 0.0);
-}
-// Distance along d to the reference sphere, or -1.
-float ground_hit(vec3 d) {
-  float b = dot(d, u_centre);
-  float disc = b * b - u_c_ground;
-  if (disc <= 0.0 || b <= 0.0) return -1.0;
-  return b - sqrt(disc);
-}
-const vec3 HAZE = vec3(0.80, 0.86, 0.92);    // scene mode's fog and horizon colour
-const vec3 ZENITH = vec3(0.33, 0.55, 0.85);  // scene mode's sky overhead
-const vec3 SPACE = vec3(0.01, 0.012, 0.03);
-`;
-
-const TERRAIN_FS = `#version 300 es
-precision highp float;
-in vec3 v_rel;
-in vec3 v_normal;
-in vec3 v_up;
-in vec2 v_uv;
-in float v_height;
-in float v_w;
-uniform sampler2D u_mask;     // the tile's water mask (R8), used when u_water < 0
-uniform float u_water;        // the one-byte mask's value 0..1, or -1
-uniform vec3 u_sun;
-uniform float u_sea_level;
-uniform float u_snow_line;    // metres: the material scale (scene mode's height 0..1)
-uniform float u_log_depth;    // 2 / log2(far + 1)
-uniform float u_fog_scale;
-${ATMOSPHERE_GLSL}
-layout(location = 0) out vec4 out_colour;
-layout(location = 1) out vec4 out_distance;
-
-void main() {
-  vec3 up = normalize(v_up);
-  vec3 n = normalize(v_normal);
-  float distance = length(v_rel);
-  vec3 view = v_rel / distance;
-  float water = u_water >= 0.0 ? u_water : texture(u_mask, vec2(v_uv.x, 1.0 - v_uv.y)).r;
-  if (v_height < u_sea_level - 1.0) water = 1.0;  // below the sea's surface, whatever the mask
-  // Land: scene mode's materials (grass to brown by height, rock by slope, snow high and flat)
-  // with a sand beach near sea level.
-  float slope = sqrt(1.0 - min(1.0, dot(n, up) * dot(n, up)));
-  float height = (v_height - u_sea_level) / u_snow_line;
-  vec3 ground = mix(vec3(0.32, 0.45, 0.20), vec3(0.55, 0.50, 0.38), clamp(height * 1.4, 0.0, 1.0));
-  ground = mix(ground, vec3(0.45, 0.42, 0.40), clamp((slope - 0.45) * 4.0, 0.0, 1.0));
-  if (height > 0.8 && slope < 0.6) ground = mix(ground, vec3(0.95, 0.96, 0.98), clamp((height - 0.8) * 5.0, 0.0, 1.0));
-  ground = mix(vec3(0.76, 0.70, 0.50), ground, smoothstep(2.0, 30.0, v_height - u_sea_level));
-  vec3 land = ground * (0.30 + 0.75 * max(0.0, dot(n, u_sun)));
-  // Water: deeper is darker; lit from the ellipsoid's up with a glint of the sun.
-  float depth = clamp((u_sea_level - v_height) / 3000.0, 0.0, 1.0);
-  vec3 sea = mix(vec3(0.12, 0.30, 0.45), vec3(0.05, 0.16, 0.32), depth);
-  float glint = pow(max(0.0, dot(reflect(-u_sun, up), -view)), 40.0);
-  sea = sea * (0.45 + 0.6 * max(0.0, dot(up, u_sun))) + vec3(0.5) * glint;
-  vec3 colour = mix(land, sea, clamp(water, 0.0, 1.0));
-  // Fog: the atmosphere between the eye and the surface.
-  float fog = 1.0 - exp(-shell_length(view, distance) / u_fog_scale);
-  out_colour = vec4(mix(colour, HAZE, fog), 1.0);
-  out_distance = vec4(distance, 0.0, 0.0, 1.0);
-  gl_FragDepth = log2(v_w) * u_log_depth * 0.5;
-}`;
-
-const SKY_VS = `#version 300 es
-void main() {
-  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
-  gl_Position = vec4(p * 2.0 - 1.0, 1.0, 1.0);
-}`;
-
-const SKY_FS = `#version 300 es
-precision highp float;
-uniform vec3 u_forward;
-uniform vec3 u_right;
-uniform vec3 u_up;
-uniform vec2 u_tan;          // tan(fov/2)·aspect, tan(fov/2)
-uniform vec2 u_size;
-uniform float u_atmosphere;  // the shell's thickness, metres
-${ATMOSPHERE_GLSL}
-layout(location = 0) out vec4 out_colour;
-layout(location = 1) out vec4 out_distance;
-void main() {
-  vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
-  vec3 d = normalize(u_forward + u_right * ndc.x * u_tan.x + u_up * ndc.y * u_tan.y);
-  float ground = ground_hit(d);
-  float path = shell_length(d, ground > 0.0 ? ground : 1e30);
-  // Overhead the sky is deep blue, towards the horizon (long paths) hazy; from space the shell
-  // glows where the path through it is long: the limb.
-  vec3 sky = mix(ZENITH, HAZE, smoothstep(0.0, 1.0, (path - u_atmosphere) / (8.0 * u_atmosphere)));
-  float opacity = 1.0 - exp(-path / (0.5 * u_atmosphere));
-  vec3 colour = mix(SPACE, sky, opacity);
-  // Where the ray meets the planet but no tile is drawn yet: a dull sea colour, not sky.
-  if (ground > 0.0) colour = mix(vec3(0.10, 0.20, 0.30), HAZE, 1.0 - exp(-path / 350e3));
-  out_colour = vec4(colour, 1.0);
-  out_distance = vec4(-1.0, 0.0, 0.0, 1.0);
-}`;
-
-// Small vector helpers (double precision, plain arrays).
-const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-const len = (a) => Math.hypot(a[0], a[1], a[2]);
-const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-
-function tileKey(z, x, y) {
-  return `${z}/${x}/${y}`;
-}
-
-/// Degrees of the tile's bounds: { west, south, east, north }.
-export function tileBounds(z, x, y) {
-  const size = 180 / 2 ** z;
-  return { west: -180 + x * size, south: -90 + y * size, east: -180 + (x + 1) * size, north: -90 + (y + 1) * size };
-}
 
 export class PlanetView {
   /// Fetches the planet's definition and layer.json; throws an ApiError that names the planet
@@ -768,68 +623,6 @@ export class PlanetView {
     }
     return { width, height, rgba, depth, ms, tiles: stats.tiles, triangles: stats.triangles, complete: stats.complete };
   }
-}
-
-/// The server's mesh is adaptive in (longitude, latitude, height): over flat sea floor a zoom-0
-/// triangle may span tens of degrees, and drawn as a flat triangle between points on the sphere
-/// its chord would sag hundreds of kilometres below the surface. So triangles are bisected at
-/// the midpoint of their longest edge (the RTIN hypotenuse; u, v, height and normal
-/// interpolated there) until the chord sag R·θ²/8 of the longest edge is at most the tile's
-/// geometric error, a quarter of the sample spacing s (θ² ≤ 2s/R: θ ≤ √(40.7·2^z) grid
-/// cells). That is the uniform RTIN level OR-ed with the server's splits, so the result is still
-/// conforming (a shared midpoint is made once, by its edge's key), and tile edges, already one
-/// grid cell per segment, are untouched.
-export function curveMesh(mesh, z) {
-  const cell = 32767 / GRID_CELLS;
-  const limit = Math.max(1, Math.floor(Math.sqrt((2 * GRID_CELLS * 2 ** z) / Math.PI))) * cell;
-  const limitSquared = limit * limit * 1.0001;
-  const u = Array.from(mesh.u), v = Array.from(mesh.v), h = Array.from(mesh.heights);
-  const normals = mesh.normals ? Array.from(mesh.normals) : null;
-  const midpoints = new Map();
-  const midpoint = (a, b) => {
-    const key = a < b ? `${a},${b}` : `${b},${a}`;
-    let m = midpoints.get(key);
-    if (m === undefined) {
-      m = u.length;
-      u.push((u[a] + u[b]) / 2);
-      v.push((v[a] + v[b]) / 2);
-      h.push((h[a] + h[b]) / 2);
-      if (normals) {
-        const n = [0, 1, 2].map((c) => normals[3 * a + c] + normals[3 * b + c]);
-        const l = Math.hypot(n[0], n[1], n[2]) || 1;
-        normals.push(n[0] / l, n[1] / l, n[2] / l);
-      }
-      midpoints.set(key, m);
-    }
-    return m;
-  };
-  const edge = (a, b) => (u[a] - u[b]) ** 2 + (v[a] - v[b]) ** 2;
-  const out = [];
-  const stack = [];
-  for (let i = mesh.indices.length - 3; i >= 0; i -= 3) stack.push([mesh.indices[i], mesh.indices[i + 1], mesh.indices[i + 2]]);
-  while (stack.length) {
-    let [a, b, c] = stack.pop();
-    // Rotate so that (a, b) is the longest edge; the corner order (winding) is kept.
-    const ab = edge(a, b), bc = edge(b, c), ca = edge(c, a);
-    if (bc > ab && bc >= ca) [a, b, c] = [b, c, a];
-    else if (ca > ab && ca > bc) [a, b, c] = [c, a, b];
-    if (edge(a, b) <= limitSquared) {
-      out.push(a, b, c);
-      continue;
-    }
-    const m = midpoint(a, b);
-    stack.push([m, b, c], [a, m, c]);
-  }
-  if (out.length === mesh.indices.length) return mesh;
-  return {
-    ...mesh,
-    vertexCount: u.length,
-    u: Float64Array.from(u),
-    v: Float64Array.from(v),
-    heights: Float64Array.from(h),
-    normals: normals ? Float32Array.from(normals) : null,
-    indices: u.length > 65535 ? Uint32Array.from(out) : Uint16Array.from(out),
-  };
 }
 
 /// Cesium's magnitude for the occludee point along `direction` (unit, scaled space) that puts

@@ -47,7 +47,12 @@ export function pointerToken(key) {
   return String(key).replaceAll('~', '~0').replaceAll('/', '~1');
 }
 
-const PRIMITIVES = new Set(['disc', 'contour', 'curve', 'image']);
+/// The names of the primitive node types in the server's registry (GET /api/v1/node-types): the
+/// nodes an editor can pick and move. The list is the server's, so a new primitive needs no edit
+/// here beyond what its own fields mean for picking (centre, radius, elevation below).
+export function primitiveTypes(registry) {
+  return new Set((registry?.node_types ?? []).filter((t) => t.category === 'primitive').map((t) => t.name));
+}
 const BEZIER_STEPS = 16;  // points per curved piece when a skeleton is flattened for picking
 
 /// The points of a skeleton (pieces of 2–4 [x, y, z] points: a segment or a Bézier), flattened.
@@ -115,8 +120,8 @@ function contourRadius(node, theta) {
 
 /// Every primitive instance of a canonical scene document, in tree order (the root, then the
 /// water layer): { pointer, type, node, frame (local → scene metres), tree, instance (how many
-/// earlier entries share the pointer), warped, label }.
-export function listPrimitives(doc) {
+/// earlier entries share the pointer), warped, label }. `primitives`: primitiveTypes' set.
+export function listPrimitives(doc, primitives) {
   const out = [];
   const seen = new Map();  // pointer -> instances so far
   const visit = (node, pointer, frame, tree, refs, warped) => {
@@ -127,7 +132,7 @@ export function listPrimitives(doc) {
       visit(definition, `/definitions/${pointerToken(node.ref)}`, frame, tree, [...refs, node.ref], warped);
       return;
     }
-    if (PRIMITIVES.has(node.type)) {
+    if (primitives.has(node.type)) {
       const instance = seen.get(pointer) ?? 0;
       seen.set(pointer, instance + 1);
       const name = node.id ? ` “${node.id}”` : '';

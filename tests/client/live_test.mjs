@@ -227,7 +227,8 @@ try {
         { type: 'transform', translate: [-500, 0], children: [{ ref: 'hill' }] },
         { type: 'transform', translate: [500, 0], children: [{ ref: 'hill' }] },
       ] } };
-    const list = m.listPrimitives(doc);
+    const registry = await (await fetch('/api/v1/node-types')).json();
+    const list = m.listPrimitives(doc, m.primitiveTypes(registry));
     return {
       pointers: list.map((p) => p.pointer),
       centres: list.map((p) => m.worldCentre(p).map((v) => Math.round(v * 1000) / 1000)),
