@@ -41,6 +41,13 @@ inline const char* cache_policy(bool pinned) {
   return pinned ? kImmutable : kHeadCacheControl;
 }
 
+/// A response of the request's HTTP version and keep-alive, with the server's name.
+Response make_response(const Request& request, http::status status, Payload body,
+                       std::string_view media_type);
+
+/// Whether the request's If-None-Match names this entity tag.
+bool etag_matches(const Request& request, std::string_view etag);
+
 /// JSON the server reads back (stored rows, events from other replicas) with the same bounds as
 /// request bodies (terrain::parse_json_text); a discarded value when refused.
 nlohmann::json parse_bounded_json(std::string_view text);

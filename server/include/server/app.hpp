@@ -109,7 +109,33 @@ class App {
 
  private:
   struct Target;
+  /// What a route's pattern bound: the scene's or planet's ref, and the segments after it.
+  struct RouteMatch {
+    std::string ref;
+    std::vector<std::string> rest;
+  };
+  /// One route of the table (app_routes.cpp): routing, /metrics labels and body limits all
+  /// read it. A GET route answers HEAD too.
+  struct Route {
+    enum class Body { none, scene, image };  ///< the body limit: none, the scene's, the image's
+    http::verb method;
+    std::string_view pattern;  ///< "/api/v1/scenes/{ref}/tiles/{...}": literal segments, one
+                               ///< {ref}, and {...} for one or more segments
+    std::string_view label;    ///< what /metrics counts it as
+    Body body;
+    bool loads_version;  ///< a read of a scene version not loaded yet compiles it on the pool first
+    Outcome (*handle)(App& app, const Request& request, const Target& target,
+                      const RouteMatch& match);
+    template <class Segment>
+    std::optional<RouteMatch> match(const std::vector<Segment>& segments) const;
+  };
+  static const std::vector<Route>& routes();
+  static Outcome scene_route(App& app, const Request& request, const Target& target,
+                             const RouteMatch& match);
+  static Outcome planet_route(App& app, const Request& request, const Target& target,
+                              const RouteMatch& match);
   Outcome route(const Request& request, const Target& target);
+  Response client_file(const Request& request, const Target& target) const;
 
   /// What the URL of an immutable tile or mesh came to once routed: the cache key of its bytes
   /// and the headers that the URL alone decides.
