@@ -8,6 +8,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string>
 #include <thread>
 #include <unordered_map>
@@ -126,8 +127,14 @@ class App {
     bool loads_version;  ///< a read of a scene version not loaded yet compiles it on the pool first
     Outcome (*handle)(App& app, const Request& request, const Target& target,
                       const RouteMatch& match);
+    /// The pattern's segments, split once when the table is built.
+    std::vector<std::string_view> parts = {};
+
+    /// Whether the path's segments fit the pattern (no allocation: the hot path asks this).
     template <class Segment>
-    std::optional<RouteMatch> match(const std::vector<Segment>& segments) const;
+    bool fits(std::span<const Segment> segments) const;
+    /// What the pattern binds in a path that fits it.
+    std::optional<RouteMatch> match(std::span<const std::string> segments) const;
   };
   static const std::vector<Route>& routes();
   static Outcome scene_route(App& app, const Request& request, const Target& target,
