@@ -23,6 +23,16 @@ namespace terrain::testing {
 /// Product name ("butte/local-1-0-0.png?encoding=terrarium") → SHA-256 of its bytes.
 using ProductHashes = std::map<std::string, std::string>;
 
+/// "local-1-0-0.png?encoding=terrarium": a product's name in the golden files.
+inline std::string product_name(TileScheme scheme, const TileAddress& a,
+                                const TileFormatInfo& info) {
+  std::string name = std::string(scheme_name(scheme)) + "-" + std::to_string(a.z) + "-" +
+                     std::to_string(a.x) + "-" + std::to_string(a.y) + "." +
+                     std::string(info.extension);
+  if (!info.encoding.empty()) name += "?encoding=" + std::string(info.encoding);
+  return name;
+}
+
 inline std::string hash_of(const std::vector<std::uint8_t>& bytes) {
   return sha256_hex(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }

@@ -284,11 +284,10 @@ int cmd_program(const Args& args) {
 
 int cmd_nodes() {
   nlohmann::json out = nlohmann::json::array();
-  constexpr const char* kCategories[] = {"primitive", "blend", "binary", "warp"};
   for (const NodeType* t : node_types()) {
     out.push_back({{"type", t->name},
                    {"id", t->id},
-                   {"category", kCategories[static_cast<int>(t->category)]},
+                   {"category", category_name(t->category)},
                    {"summary", t->summary},
                    {"example", nlohmann::json::parse(t->example_json)}});
   }

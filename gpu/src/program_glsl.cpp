@@ -18,10 +18,6 @@ using terrain::Op;
 
 using terrain::NodeCategory;
 
-bool in_shaders(const terrain::NodeType& node) {
-  return node.shader.implemented();
-}
-
 std::string_view type_name(std::uint16_t id) {
   const terrain::NodeType* node = terrain::node_type_by_id(id);
   return node ? node->name : std::string_view("unknown");
@@ -186,12 +182,12 @@ bool shader_implements(Op op, std::uint16_t type) {
   const terrain::NodeType* node = terrain::node_type_by_id(type);
   switch (op) {
     case Op::leaf:
-      return node && node->category == NodeCategory::primitive && in_shaders(*node);
+      return node && node->category == NodeCategory::primitive && node->shader.implemented();
     case Op::combine:
-      return node && node->category == NodeCategory::binary && in_shaders(*node);
+      return node && node->category == NodeCategory::binary && node->shader.implemented();
     case Op::warp_begin:
     case Op::warp_end:
-      return node && node->category == NodeCategory::warp && in_shaders(*node);
+      return node && node->category == NodeCategory::warp && node->shader.implemented();
     case Op::blend_begin:
     case Op::blend_add:
     case Op::blend_end:
@@ -256,7 +252,7 @@ std::string node_type_defines(const terrain::Program& program) {
   define("TERRAIN_USES_NOISE_GRADIENT", bases[0]);
   define("TERRAIN_USES_NOISE_SIMPLEX", bases[1]);
   for (const terrain::NodeType* node : terrain::node_types()) {
-    if (in_shaders(*node)) define(uses_define(*node), used.contains(node->id));
+    if (node->shader.implemented()) define(uses_define(*node), used.contains(node->id));
   }
   return out;
 }

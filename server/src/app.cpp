@@ -681,11 +681,10 @@ Response App::node_types(const Request& request) const {
   static const std::string text = [] {
     json types = json::array();
     for (const terrain::NodeType* type : terrain::node_types()) {
-      static constexpr const char* kCategories[] = {"primitive", "blend", "binary", "warp"};
       json entry{
           {"id", type->id},
           {"name", type->name},
-          {"category", kCategories[static_cast<int>(type->category)]},
+          {"category", terrain::category_name(type->category)},
           {"min_children", type->min_children},
           {"summary", type->summary},
           {"gpu", type->category == terrain::NodeCategory::blend || type->shader.implemented()},

@@ -40,6 +40,20 @@ const NodeType* node_type_by_id(std::uint16_t id) {
   return id < kById.size() ? kById[id] : nullptr;
 }
 
+std::string_view category_name(NodeCategory category) {
+  switch (category) {
+    case NodeCategory::primitive:
+      return "primitive";
+    case NodeCategory::blend:
+      return "blend";
+    case NodeCategory::binary:
+      return "binary";
+    case NodeCategory::warp:
+      return "warp";
+  }
+  return "unknown";
+}
+
 const NodeType* find_node_type(std::string_view name) {
   for (const NodeType* type : node_types()) {
     if (type->name == name) return type;

@@ -32,10 +32,7 @@ TEST(ProductGoldens, TheDefaultPlanetMakesTheBytesOfItsGeneration) {
   for (const auto& [scheme, a] : places) {
     for (const TileFormatInfo& info : terrain::tile_formats()) {
       if (info.mesh && scheme != TileScheme::geographic) continue;
-      std::string name = std::string(terrain::scheme_name(scheme)) + "-" + std::to_string(a.z) +
-                         "-" + std::to_string(a.x) + "-" + std::to_string(a.y) + "." +
-                         std::string(info.extension);
-      if (!info.encoding.empty()) name += "?encoding=" + std::string(info.encoding);
+      const std::string name = terrain::testing::product_name(scheme, a, info);
       Result<terrain::Product> product = tiles.make(scheme, a, info.format, {});
       ASSERT_TRUE(product.ok()) << name << ": " << product.error().message;
       made[name] = terrain::testing::hash_of(product->bytes);

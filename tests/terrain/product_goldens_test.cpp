@@ -22,15 +22,6 @@ TileAddress middle_tile(const TileSource& source, TileScheme scheme, int z) {
   return {z, (r.min_x + r.max_x) / 2, (r.min_y + r.max_y) / 2};
 }
 
-std::string product_name(const std::string& scene, TileScheme scheme, const TileAddress& a,
-                         const TileFormatInfo& info) {
-  std::string name = scene + "/" + std::string(scheme_name(scheme)) + "-" + std::to_string(a.z) +
-                     "-" + std::to_string(a.x) + "-" + std::to_string(a.y) + "." +
-                     std::string(info.extension);
-  if (!info.encoding.empty()) name += "?encoding=" + std::string(info.encoding);
-  return name;
-}
-
 TEST(ProductGoldens, EveryExampleSceneMakesTheBytesOfItsGeneration) {
   ProductHashes made;
   for (const char* scene : kSceneNames) {
@@ -55,7 +46,8 @@ TEST(ProductGoldens, EveryExampleSceneMakesTheBytesOfItsGeneration) {
         }
       }
       for (const auto& [scheme, address] : where) {
-        const std::string name = product_name(scene, scheme, address, info);
+        const std::string name =
+            std::string(scene) + "/" + testing::product_name(scheme, address, info);
         Result<Product> product = maker.make(scheme, address, info.format, {});
         ASSERT_TRUE(product.ok()) << name << ": " << product.error().message;
         made[name] = testing::hash_of(product->bytes);

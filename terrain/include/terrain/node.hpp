@@ -155,6 +155,8 @@ inline std::size_t pool_count(std::span<const float> params, std::size_t i) {
 
 /// Every node type, in opcode order.
 std::span<const NodeType* const> node_types();
+/// "primitive", "blend", "binary" or "warp": how the CLI and the HTTP API name a category.
+std::string_view category_name(NodeCategory category);
 /// The node type with this JSON name, or nullptr.
 const NodeType* find_node_type(std::string_view name);
 /// The node type with this id (an instruction's `type`), or nullptr. A table lookup: the
