@@ -309,9 +309,9 @@ std::optional<Response> App::cached_product(const Request& request) {
   const ProductRoute& known = route->second;
   auto product = cache_.find_hit(known.cache_key);
   if (!product) return std::nullopt;
-  return product_response({request.version(), request.keep_alive(), accepts_gzip(request),
-                           if_none_match(request), known.cache_control, known.gray16},
-                          product);
+  ReplyContext reply = ReplyContext::of(request, known.cache_control);
+  reply.gray16 = known.gray16;
+  return product_response(reply, product);
 }
 
 void App::remember_product_route(const Request& request, ProductRoute route) {
@@ -475,22 +475,13 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   const bool pinned = ref.find('@') != std::string::npos;
   const std::string id = loaded.version.scene_id;
   const std::string pinned_ref = id + "@" + std::to_string(loaded.version.version);
-  const std::string cache_control = cache_policy(pinned);
+  const char* const cache_control = cache_policy(pinned);
   const terrain::Program& program = *loaded.source->terrain;
 
   // JSON products are products too: a strong ETag of the bytes sent (so the gzipped and the
   // plain representation differ) and 304 when the client has them.
-  auto finish_json = [&](const json& body, std::string_view media = "application/json") {
-    Response r = json_response(request, http::status::ok, body, media);
-    r.set(http::field::cache_control, cache_control);
-    const std::string etag = product_etag(r.body());
-    r.set(http::field::etag, etag);
-    if (etag_matches(request, etag)) {
-      r.result(http::status::not_modified);
-      r.body().clear();
-      r.erase(http::field::content_length);
-    }
-    return r;
+  auto finish_json = [&](const json& body) {
+    return json_text_response(request, body.dump(), cache_control);
   };
 
   if (rest.size() == 1 && rest[0] == "program") {
@@ -592,7 +583,6 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   const bool mesh = query->mesh;
   const terrain::ProductOptions options = query->options;
   const int border = query->border;
-  const terrain::TileAddress address = query->address;
   const double samples =
       mesh ? static_cast<double>(options.grid) * options.grid +
                  (options.watermask && loaded.source->water ? 65536.0 : 0.0)
@@ -604,41 +594,28 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
                        " (samples x program size), above the limit of " +
                        std::to_string(static_cast<long long>(config_.max_cost)));
   }
-  const std::string cache_key = loaded.version.hash + query->key();
-  ReplyContext reply = ReplyContext::of(request, cache_control);
+  ProductJob job;
+  job.key = loaded.version.hash + query->key();
+  job.reply = ReplyContext::of(request, cache_control);
   if (query->format == terrain::TileFormat::gray16) {
-    reply.gray16 = terrain::gray16_encoding_for(loaded.source->elevation_range);
+    job.reply.gray16 = terrain::gray16_encoding_for(loaded.source->elevation_range);
   }
-  reply.negotiated_by_accept = query->format == terrain::TileFormat::quantized_mesh;
+  job.reply.negotiated_by_accept = query->format == terrain::TileFormat::quantized_mesh;
   // A pinned version's URL names the same bytes and headers forever; quantized-mesh also
   // depends on Accept.
   if (pinned && query->format != terrain::TileFormat::quantized_mesh) {
-    remember_product_route(request, {cache_key, cache_control, reply.gray16});
+    remember_product_route(request, {job.key, cache_control, job.reply.gray16});
   }
-  auto respond = [reply](const std::shared_ptr<const CachedProduct>& product) {
-    return product_response(reply, product);
+  job.cost = cost;
+  const terrain::TileFormatInfo& info = terrain::format_info(query->format);
+  job.metric = info.encoding.empty() ? info.extension : info.encoding;
+  job.reuse = [this, loaded, key = query->key(), q = *query] {
+    return reuse_unchanged_tile(loaded, key, q.scheme, q.address, q.format, q.options);
   };
-  const unsigned version = request.version();
-  const bool keep_alive = request.keep_alive();
-
-  if (auto hit = cache_.find(cache_key)) return respond(hit);
-  if (auto hit = find_shared(cache_key)) {
-    cache_.insert(cache_key, hit);
-    return respond(hit);
-  }
-  if (auto reused = reuse_unchanged_tile(loaded, query->key(), query->scheme, address,
-                                         query->format, options)) {
-    cache_.insert(cache_key, reused);
-    return respond(reused);
-  }
-
-  auto source = loaded.source;
-  const std::string version_hash = loaded.version.hash;
-  const terrain::TileScheme s = query->scheme;
-  const terrain::TileFormat f = query->format;
-  Deferred deferred;
-  deferred.cost = cost;
-  deferred.work = [=, this]() -> Response {
+  job.make = [this, source = loaded.source, version_hash = loaded.version.hash, q = *query,
+              reply =
+                  job.reply](const std::atomic<bool>&) -> terrain::Result<CachedProduct, Response> {
+    // A maker per version and thread: it keeps what tiles of a version share (not thread-safe).
     thread_local std::unordered_map<std::string, std::unique_ptr<terrain::ProductMaker>> makers;
     if (makers.size() > kMakersPerThread && !makers.contains(version_hash)) makers.clear();
     std::unique_ptr<terrain::ProductMaker>& maker = makers[version_hash];
@@ -646,33 +623,11 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
       maker = std::make_unique<terrain::ProductMaker>(*source);
       maker->set_backend(backend_);
     }
-    const auto start = std::chrono::steady_clock::now();
-    Result<terrain::Product> product = maker->make(s, address, f, options);
-    metrics_.generation(
-        terrain::format_info(f).encoding.empty() ? terrain::format_info(f).extension
-                                                 : terrain::format_info(f).encoding,
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-        !product                                    ? "cpu"
-        : product->backend.starts_with("gpu")       ? "gpu"
-        : product->backend.starts_with("cpu (fall") ? "cpu-fallback"
-                                                    : "cpu");
-    if (!product) {
-      Request shadow{http::verb::get, "/", version};
-      shadow.keep_alive(keep_alive);
-      return problem(shadow, "Bad tile request", product.error());
-    }
-    auto cached = std::make_shared<CachedProduct>();
-    cached->body.assign(product->bytes.begin(), product->bytes.end());
-    cached->media_type = product->media_type;
-    cached->content_encoding = product->content_encoding;
-    cached->etag = product_etag(cached->body);
-    cached->file = SealedFile::create(cached->body);
-    cached->backend = product->backend;
-    cache_.insert(cache_key, cached);
-    store_shared(cache_key, *cached);
-    return respond(cached);
+    Result<terrain::Product> product = maker->make(q.scheme, q.address, q.format, q.options);
+    if (!product) return problem(reply.shadow(), "Bad tile request", product.error());
+    return product_bytes(std::move(product).value());
   };
-  return deferred;
+  return serve_product(std::move(job));
 }
 
 Response App::node_types(const Request& request) const {
@@ -695,7 +650,7 @@ Response App::node_types(const Request& request) const {
     }
     return json{{"node_types", std::move(types)}}.dump();
   }();
-  return json_text_response(request, text, "public, max-age=60");
+  return json_text_response(request, text, kReleaseCacheControl);
 }
 
 Response App::trace_glsl(const Request& request) const {
@@ -704,14 +659,9 @@ Response App::trace_glsl(const Request& request) const {
   static const std::string text =
       std::string(gpu::shared_glsl()) + "\n" + std::string(gpu::trace_glsl());
   static const std::string etag = product_etag(text);
-  if (etag_matches(request, etag)) {
-    Response r = make_response(request, http::status::not_modified, "", "text/plain");
-    r.set(http::field::etag, etag);
-    return r;
-  }
   Response r = make_response(request, http::status::ok, text, "text/plain; charset=utf-8");
-  r.set(http::field::etag, etag);
-  r.set(http::field::cache_control, "public, max-age=60");
+  r.set(http::field::cache_control, kReleaseCacheControl);
+  answer_conditionally(request, r, etag);
   return r;
 }
 

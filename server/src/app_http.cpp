@@ -8,7 +8,6 @@
 namespace server {
 
 using detail::ReplyContext;
-using detail::ReplyParts;
 using detail::TileQuery;
 
 std::string detail::quote(std::string_view s) {
@@ -84,8 +83,8 @@ std::string detail::product_etag(std::string_view body) {
 }
 
 Response detail::json_text_response(const Request& request, const std::string& text,
-                                    std::string_view cache_control) {
-  Response r = make_response(request, http::status::ok, "", "application/json");
+                                    std::string_view cache_control, std::string_view media_type) {
+  Response r = make_response(request, http::status::ok, "", media_type);
   r.set(http::field::vary, "Accept-Encoding, Origin");
   r.set(http::field::cache_control, cache_control);
   std::string sent = text;
@@ -95,12 +94,7 @@ Response detail::json_text_response(const Request& request, const std::string& t
       sent.assign(packed->begin(), packed->end());
     }
   }
-  const std::string etag = product_etag(sent);
-  r.set(http::field::etag, etag);
-  if (etag_matches(request, etag)) {
-    r.result(http::status::not_modified);
-    return r;
-  }
+  if (answer_conditionally(request, r, product_etag(sent))) return r;
   r.body() = std::move(sent);
   r.prepare_payload();
   return r;
@@ -216,7 +210,49 @@ terrain::Result<detail::TileQuery, Response> detail::parse_tile_query(
   return q;
 }
 
-Response detail::product_response(const ReplyParts& c,
+detail::ReplyContext detail::ReplyContext::of(const Request& request, const char* cache_control) {
+  ReplyContext c;
+  c.version = request.version();
+  c.keep_alive = request.keep_alive();
+  c.gzip_ok = accepts_gzip(request);
+  c.if_none_match = std::string(detail::if_none_match(request));
+  c.cache_control = cache_control;
+  return c;
+}
+
+Request detail::ReplyContext::shadow() const {
+  Request r{http::verb::get, "/", version};
+  if (!if_none_match.empty()) r.set(http::field::if_none_match, if_none_match);
+  if (gzip_ok) r.set(http::field::accept_encoding, "gzip");
+  r.keep_alive(keep_alive);
+  return r;
+}
+
+bool detail::answer_conditionally(std::string_view if_none_match, Response& response,
+                                  std::string_view etag) {
+  response.set(http::field::etag, etag);
+  if (!none_match_names(if_none_match, etag)) return false;
+  response.result(http::status::not_modified);
+  response.body().clear();
+  response.erase(http::field::content_length);
+  return true;
+}
+
+bool detail::answer_conditionally(const Request& request, Response& response,
+                                  std::string_view etag) {
+  return answer_conditionally(if_none_match(request), response, etag);
+}
+
+CachedProduct detail::product_bytes(terrain::Product product) {
+  CachedProduct bytes;
+  bytes.body.assign(product.bytes.begin(), product.bytes.end());
+  bytes.media_type = std::move(product.media_type);
+  bytes.content_encoding = std::move(product.content_encoding);
+  bytes.backend = std::move(product.backend);
+  return bytes;
+}
+
+Response detail::product_response(const ReplyContext& c,
                                   const std::shared_ptr<const CachedProduct>& product) {
   const CachedProduct& p = *product;
   // A gzip-stored product sent plain is another representation: another strong ETag.
@@ -227,7 +263,6 @@ Response detail::product_response(const ReplyParts& c,
   Response r{http::status::ok, c.version};
   r.set(http::field::server, "terrain-server");
   r.keep_alive(c.keep_alive);
-  r.set(http::field::etag, etag);
   r.set(http::field::cache_control, c.cache_control);
   // A shared cache must not hand one client's quantized-mesh extensions to another.
   r.set(http::field::vary,
@@ -236,10 +271,7 @@ Response detail::product_response(const ReplyParts& c,
     r.set("X-Gray16-Offset", std::to_string(c.gray16->offset));
     r.set("X-Gray16-Scale", std::to_string(c.gray16->scale));
   }
-  if (none_match_names(c.if_none_match, etag)) {
-    r.result(http::status::not_modified);
-    return r;
-  }
+  if (answer_conditionally(c.if_none_match, r, etag)) return r;
   r.set(http::field::content_type, p.media_type);
   if (inflate) {
     auto raw = terrain::gzip_decompress(
@@ -254,11 +286,6 @@ Response detail::product_response(const ReplyParts& c,
   if (!p.backend.empty()) r.set("X-Terrain-Backend", p.backend);
   r.prepare_payload();  // HEAD: the session drops the body and keeps this length
   return r;
-}
-
-Response detail::product_response(const ReplyContext& c,
-                                  const std::shared_ptr<const CachedProduct>& product) {
-  return product_response(ReplyParts::of(c), product);
 }
 
 }  // namespace server

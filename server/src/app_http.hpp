@@ -3,6 +3,8 @@
 // app_live.cpp). The definitions are in app_http.cpp.
 #pragma once
 
+#include <atomic>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -39,7 +41,8 @@ std::string product_etag(std::string_view body);
 // ETag of the bytes sent (the gzipped and the plain representation differ), 304 when the client
 // has them.
 Response json_text_response(const Request& request, const std::string& text,
-                            std::string_view cache_control);
+                            std::string_view cache_control,
+                            std::string_view media_type = "application/json");
 
 std::string query_value(const std::map<std::string, std::string>& query, const std::string& key,
                         const std::string& fallback = "");
@@ -82,56 +85,57 @@ terrain::Result<TileQuery, Response> parse_tile_query(
     const Request& request, const std::vector<std::string>& rest,
     const std::map<std::string, std::string>& query, bool planet);
 
-// What a product response needs of its request, copied so that deferred work outlives it.
+// What a response needs of its request, copied so that deferred work outlives the request: the
+// one way a reply carries its request's context once the request is gone.
 struct ReplyContext {
   unsigned version = 11;
   bool keep_alive = false;
   bool gzip_ok = false;
   std::string if_none_match;
-  std::string cache_control;
+  /// One of the static policies (kImmutable, …): a pointer, so that no temporary string binds.
+  const char* cache_control = kHeadCacheControl;
   std::optional<terrain::Gray16Encoding> gray16;  ///< X-Gray16-* headers for gray16 PNGs
   bool negotiated_by_accept = false;              ///< quantized-mesh: Accept chose the extensions
 
-  static ReplyContext of(const Request& request, std::string cache_control) {
-    ReplyContext c;
-    c.version = request.version();
-    c.keep_alive = request.keep_alive();
-    c.gzip_ok = accepts_gzip(request);
-    const auto it = request.find(http::field::if_none_match);
-    if (it != request.end()) c.if_none_match = std::string(it->value());
-    c.cache_control = std::move(cache_control);
-    return c;
-  }
-  /// A request to build problems and responses with, once the original is gone.
-  Request shadow() const {
-    Request r{http::verb::get, "/", version};
-    if (!if_none_match.empty()) r.set(http::field::if_none_match, if_none_match);
-    r.keep_alive(keep_alive);
-    return r;
-  }
+  static ReplyContext of(const Request& request, const char* cache_control);
+  /// A request that problems and JSON responses can be built from: the version, keep-alive,
+  /// If-None-Match and gzip acceptance of the original.
+  Request shadow() const;
 };
 
-// What a product response takes from its request and URL, as views (of a ReplyContext, or of
-// the request itself while it is handled).
-struct ReplyParts {
-  unsigned version = 11;
-  bool keep_alive = false;
-  bool gzip_ok = false;
-  std::string_view if_none_match;
-  std::string_view cache_control;
-  std::optional<terrain::Gray16Encoding> gray16;
-  bool negotiated_by_accept = false;
+// Conditional GET in one place: sets the strong ETag, and when If-None-Match names it turns the
+// response into its 304 (every header a 200 would carry, no body). True when it did.
+bool answer_conditionally(std::string_view if_none_match, Response& response,
+                          std::string_view etag);
+bool answer_conditionally(const Request& request, Response& response, std::string_view etag);
 
-  static ReplyParts of(const ReplyContext& c) {
-    return {c.version, c.keep_alive,          c.gzip_ok, c.if_none_match, c.cache_control,
-            c.gray16,  c.negotiated_by_accept};
-  }
-};
+// A product's bytes and headers as the caches keep them (the pipeline adds the ETag and file).
+CachedProduct product_bytes(terrain::Product product);
 
 // The response for a product, fresh or cached: strong ETag, 304, gzip as stored or inflated.
-Response product_response(const ReplyParts& c, const std::shared_ptr<const CachedProduct>& product);
-
 Response product_response(const ReplyContext& c,
                           const std::shared_ptr<const CachedProduct>& product);
 
 }  // namespace server::detail
+
+namespace server {
+
+struct App::ProductJob {
+  std::string key;  ///< the cache key: the content hash and everything else that shapes the bytes
+  detail::ReplyContext reply;
+  double cost = 0.0;  ///< in the pool's units, checked against the limits already
+  Deferred::Lane lane = Deferred::Lane::product;
+  std::string metric;  ///< what /metrics counts the generation time under
+  /// After the caches miss, on the I/O thread: the bytes found another cheap way (a tile that an
+  /// edit left untouched), or null.
+  std::function<std::shared_ptr<const CachedProduct>()> reuse = {};
+  /// On a worker thread: the product's body, media type, content encoding and backend (the
+  /// pipeline adds the ETag and the sealed file), or the response that refuses it. `abandoned`
+  /// turns true when the client has gone.
+  std::function<terrain::Result<CachedProduct, Response>(const std::atomic<bool>& abandoned)> make;
+  /// The response of a product (product_response, unless the product needs more headers).
+  std::function<Response(const detail::ReplyContext&, const std::shared_ptr<const CachedProduct>&)>
+      respond = detail::product_response;
+};
+
+}  // namespace server

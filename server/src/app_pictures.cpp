@@ -113,25 +113,25 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
       bits(camera.position.z) + bits(camera.target.x) + bits(camera.target.y) +
       bits(camera.target.z) + bits(camera.vertical_fov_degrees) + bits(options.water_level) + "/" +
       std::to_string(config_.picture_steps_per_pixel);
-  const ReplyContext reply = ReplyContext::of(request, cache_policy(pinned));
-  auto respond = [reply, depth, width, height](const std::shared_ptr<const CachedProduct>& p) {
-    Response r = product_response(reply, p);
-    if (depth) r.set("X-Picture-Size", std::to_string(width) + "x" + std::to_string(height));
-    return r;
-  };
-  if (auto hit = cache_.find(cache_key)) return respond(hit);
-  if (auto hit = find_shared(cache_key)) {
-    cache_.insert(cache_key, hit);
-    return respond(hit);
+  ProductJob job;
+  job.key = cache_key;
+  job.reply = ReplyContext::of(request, cache_policy(pinned));
+  job.cost = cost;
+  job.lane = Deferred::Lane::picture;
+  job.metric = depth ? "depth" : "render";
+  if (depth) {
+    job.respond = [width, height](const ReplyContext& reply,
+                                  const std::shared_ptr<const CachedProduct>& p) {
+      Response r = product_response(reply, p);
+      r.set("X-Picture-Size", std::to_string(width) + "x" + std::to_string(height));
+      return r;
+    };
   }
-  auto source = loaded.source;
-  Deferred deferred;
-  deferred.cost = cost;
-  deferred.lane = Deferred::Lane::picture;
   options.step_budget = step_budget;
-  options.cancel = deferred.abandoned.get();
-  deferred.work = [=, this, abandoned = deferred.abandoned]() -> Response {
-    const auto start = std::chrono::steady_clock::now();
+  job.make =
+      [=, this, source = loaded.source, reply = job.reply](
+          const std::atomic<bool>& abandoned) mutable -> terrain::Result<CachedProduct, Response> {
+    options.cancel = &abandoned;
     // The GPU tracer when the server has a GPU backend; the CPU when there is none or it fails
     // (unsupported program, lost context, llvmpipe's loop limit), and the response says which.
     terrain::Picture picture;
@@ -149,13 +149,12 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
       }
     }
     if (!traced) picture = terrain::render(*source->terrain, area, camera, options);
-    const Request shadow = reply.shadow();
     if (picture.stopped == terrain::Picture::Stop::cancelled) {
-      return problem(shadow, http::status::service_unavailable, "Abandoned",
+      return problem(reply.shadow(), http::status::service_unavailable, "Abandoned",
                      "the client left before the picture was done");
     }
     if (picture.stopped == terrain::Picture::Stop::budget) {
-      return problem(shadow, http::status::unprocessable_entity, "Too costly",
+      return problem(reply.shadow(), http::status::unprocessable_entity, "Too costly",
                      "the picture needed more than " + std::to_string(step_budget) +
                          " sphere-tracing steps (" +
                          std::to_string(config_.picture_steps_per_pixel) +
@@ -163,38 +162,30 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
                          "or a camera nearer the terrain",
                      "/width");
     }
-    auto cached = std::make_shared<CachedProduct>();
+    CachedProduct bytes;
+    bytes.backend = produced;
     if (depth) {
       // Ray distances as little-endian float32, row-major from the top-left pixel.
-      cached->body.assign(picture.depth.size() * sizeof(float), '\0');
+      bytes.body.assign(picture.depth.size() * sizeof(float), '\0');
       for (std::size_t i = 0; i < picture.depth.size(); ++i) {
         const auto value = std::bit_cast<std::uint32_t>(picture.depth[i]);
         for (std::size_t k = 0; k < 4; ++k) {
-          cached->body[4 * i + k] = static_cast<char>((value >> (8 * k)) & 0xffu);
+          bytes.body[4 * i + k] = static_cast<char>((value >> (8 * k)) & 0xffu);
         }
       }
-      cached->media_type = "application/octet-stream";
-    } else {
-      auto png = terrain::encode_png_rgb8(picture.width, picture.height, picture.rgb.data());
-      if (!png) {
-        return problem(shadow, http::status::internal_server_error, "Encoding failed",
-                       png.error().message);
-      }
-      cached->body.assign(png->begin(), png->end());
-      cached->media_type = "image/png";
+      bytes.media_type = "application/octet-stream";
+      return bytes;
     }
-    metrics_.generation(
-        depth ? "depth" : "render",
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-        traced ? "gpu" : (backend_ ? "cpu-fallback" : "cpu"));
-    cached->etag = product_etag(cached->body);
-    cached->file = SealedFile::create(cached->body);
-    cached->backend = produced;
-    cache_.insert(cache_key, cached);
-    store_shared(cache_key, *cached);
-    return respond(cached);
+    auto png = terrain::encode_png_rgb8(picture.width, picture.height, picture.rgb.data());
+    if (!png) {
+      return problem(reply.shadow(), http::status::internal_server_error, "Encoding failed",
+                     png.error().message);
+    }
+    bytes.body.assign(png->begin(), png->end());
+    bytes.media_type = "image/png";
+    return bytes;
   };
-  return deferred;
+  return serve_product(std::move(job));
 }
 
 // GET …/trace.json: everything a browser needs to sphere-trace the scene itself, as
@@ -206,28 +197,24 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
   // The bundle names its version (and author), which two versions of equal content do not share.
   const std::string key = loaded.version.hash + "|trace.json|" + loaded.version.scene_id + "@" +
                           std::to_string(loaded.version.version);
-  const std::string cache_control = cache_policy(pinned);
-  Request shadow{http::verb::get, "/", request.version()};
-  shadow.keep_alive(request.keep_alive());
-  for (const http::field f : {http::field::accept_encoding, http::field::if_none_match}) {
-    if (const auto it = request.find(f); it != request.end()) shadow.set(f, it->value());
-  }
-  auto respond = [shadow, cache_control](const CachedProduct& p) {
-    Response r = json_text_response(shadow, p.body, cache_control);
-    r.set("X-Terrain-Backend", p.backend);
+  ProductJob job;
+  job.key = key;
+  job.reply = ReplyContext::of(request, cache_policy(pinned));
+  job.respond = [](const ReplyContext& reply, const std::shared_ptr<const CachedProduct>& p) {
+    Response r = json_text_response(reply.shadow(), p->body, reply.cache_control);
+    r.set("X-Terrain-Backend", p->backend);
     return r;
   };
-  if (auto hit = cache_.find(key)) return respond(*hit);
-  auto source = loaded.source;
   const terrain::Box2 area = loaded.scene->area();
   const std::string scene_id = loaded.version.scene_id;
   const std::int64_t version = loaded.version.version;
   const std::string hash = loaded.version.hash;
   const std::string author = loaded.version.author;
   const std::int64_t created_ms = loaded.version.created_ms;
-  Deferred deferred;
-  deferred.cost = static_cast<double>(source->terrain->code.size()) * 64.0 * 64.0 * 5.0;
-  deferred.work = [=, this]() -> Response {
+  job.cost = static_cast<double>(loaded.source->terrain->code.size()) * 64.0 * 64.0 * 5.0;
+  job.metric = "trace_bundle";
+  job.make = [=, source = loaded.source](
+                 const std::atomic<bool>&) -> terrain::Result<CachedProduct, Response> {
     const terrain::Program& program = *source->terrain;
     terrain::Evaluator evaluator(program);
     const terrain::LipschitzGrid grid(evaluator, area);
@@ -270,15 +257,12 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
     if (program_glsl) body["program_glsl"] = *program_glsl;
     body["glsl_defines"] = gpu::node_type_defines(program);
     body["unroll_pays"] = gpu::unroll_pays(program);
-    auto cached = std::make_shared<CachedProduct>();
-    cached->body = body.dump();
-    cached->media_type = "application/json";
-    cached->etag = product_etag(cached->body);
-    cached->backend = "cpu";
-    cache_.insert(key, cached);
-    return respond(*cached);
+    CachedProduct bytes;
+    bytes.body = body.dump();
+    bytes.media_type = "application/json";
+    return bytes;
   };
-  return deferred;
+  return serve_product(std::move(job));
 }
 
 }  // namespace server

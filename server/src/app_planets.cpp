@@ -259,20 +259,12 @@ Response App::get_planet(const Request& request, const std::string& ref) {
   if (!stored) return store_problem(request, stored.error());
   // The id is the hash of exactly these bytes: the strongest ETag there is.
   const std::string etag = quote(id);
-  auto cache_headers = [&](Response& r) {
-    r.set(http::field::etag, etag);
-    r.set(http::field::cache_control, ref == id ? kImmutable : kAliasCacheControl);
-    if (ref != id) r.set(http::field::content_location, "/api/v1/planets/" + id);
-  };
-  if (etag_matches(request, etag)) {
-    Response r = make_response(request, http::status::not_modified, "", "application/json");
-    cache_headers(r);
-    return r;
-  }
   // The canonical text is sent as stored (never re-serialised, never compressed: it is small
   // and its bytes are what the id hashes).
   Response r = make_response(request, http::status::ok, stored->canonical_json, "application/json");
-  cache_headers(r);
+  r.set(http::field::cache_control, ref == id ? kImmutable : kAliasCacheControl);
+  if (ref != id) r.set(http::field::content_location, "/api/v1/planets/" + id);
+  answer_conditionally(request, r, etag);
   return r;
 }
 
@@ -285,20 +277,11 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
   const std::shared_ptr<const planet::Planet> world = loaded.planet;
   // Products of an id are immutable (the id is a content hash); through the alias they are
   // revalidated now and then, since "default" may name another planet after a restart.
-  const std::string cache_control = ref == id ? kImmutable : kAliasCacheControl;
+  const char* const cache_control = ref == id ? kImmutable : kAliasCacheControl;
   const std::string base = "/api/v1/planets/" + id;
 
   auto finish_json = [&](const json& body) {
-    Response r = json_response(request, http::status::ok, body);
-    r.set(http::field::cache_control, cache_control);
-    const std::string etag = product_etag(r.body());
-    r.set(http::field::etag, etag);
-    if (etag_matches(request, etag)) {
-      r.result(http::status::not_modified);
-      r.body().clear();
-      r.erase(http::field::content_length);
-    }
-    return r;
+    return json_text_response(request, body.dump(), cache_control);
   };
   auto geographic_only = [&]() -> std::optional<Response> {
     const std::string scheme = target.get("scheme", "geographic");
@@ -408,17 +391,7 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
       metrics_.generation(
           "planet_sample",
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "cpu");
-      const Request shadow = reply_base.shadow();
-      Response r = json_response(shadow, http::status::ok, body);
-      r.set(http::field::cache_control, reply_base.cache_control);
-      const std::string etag = product_etag(r.body());
-      r.set(http::field::etag, etag);
-      if (etag_matches(shadow, etag)) {
-        r.result(http::status::not_modified);
-        r.body().clear();
-        r.erase(http::field::content_length);
-      }
-      return r;
+      return json_text_response(reply_base.shadow(), body.dump(), reply_base.cache_control);
     };
     return deferred;
   }
@@ -455,56 +428,37 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
                        " (samples x (mesh levels + detail octaves)), above the limit of " +
                        std::to_string(static_cast<long long>(config_.max_cost)));
   }
+  ProductJob job;
   // "planet:" keeps planet keys apart from scene keys (which start with "sha256:").
-  const std::string cache_key = "planet:" + id + query->key();
-  ReplyContext reply = reply_base;
+  job.key = "planet:" + id + query->key();
+  job.reply = reply_base;
   if (query->format == terrain::TileFormat::gray16) {
-    reply.gray16 = terrain::gray16_encoding_for(world->elevation_range());
+    job.reply.gray16 = terrain::gray16_encoding_for(world->elevation_range());
   }
-  reply.negotiated_by_accept = query->format == terrain::TileFormat::quantized_mesh;
+  job.reply.negotiated_by_accept = query->format == terrain::TileFormat::quantized_mesh;
   // An id's URL names the same bytes and headers forever (the alias may change at a restart);
   // quantized-mesh also depends on Accept.
   if (ref == id && query->format != terrain::TileFormat::quantized_mesh) {
-    remember_product_route(request, {cache_key, cache_control, reply.gray16});
+    remember_product_route(request, {job.key, cache_control, job.reply.gray16});
   }
-  if (auto hit = cache_.find(cache_key)) return product_response(reply, hit);
-  if (auto hit = find_shared(cache_key)) {
-    cache_.insert(cache_key, hit);
-    return product_response(reply, hit);
-  }
-  const terrain::TileScheme scheme = query->scheme;
-  const terrain::TileAddress address = query->address;
-  const terrain::TileFormat format = query->format;
-  Deferred deferred;
-  deferred.cost = cost;
-  deferred.work = [=, this]() -> Response {
+  job.cost = cost;
+  const terrain::TileFormatInfo& info = terrain::format_info(query->format);
+  job.metric = "planet_" + std::string(info.encoding.empty() ? info.extension : info.encoding);
+  job.make = [id, world, q = *query, reply = job.reply](
+                 const std::atomic<bool>&) -> terrain::Result<CachedProduct, Response> {
     // One PlanetTiles per planet and thread: it keeps refined triangles between tiles (the
     // bytes never depend on them), and is not thread-safe.
     thread_local std::unordered_map<std::string, std::unique_ptr<planet::PlanetTiles>> tilers;
     if (tilers.size() >= kPlanetWorkersPerThread && !tilers.contains(id)) tilers.clear();
     std::unique_ptr<planet::PlanetTiles>& tiles = tilers[id];
     if (!tiles) tiles = std::make_unique<planet::PlanetTiles>(world);
-    const auto start = std::chrono::steady_clock::now();
-    Result<terrain::Product> product = tiles->make(scheme, address, format, options);
-    const terrain::TileFormatInfo& info = terrain::format_info(format);
-    metrics_.generation(
-        "planet_" + std::string(info.encoding.empty() ? info.extension : info.encoding),
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), "cpu");
-    if (!product) {
-      return problem(reply.shadow(), "Bad tile request", product.error());
-    }
-    auto cached = std::make_shared<CachedProduct>();
-    cached->body.assign(product->bytes.begin(), product->bytes.end());
-    cached->media_type = product->media_type;
-    cached->content_encoding = product->content_encoding;
-    cached->etag = product_etag(cached->body);
-    cached->file = SealedFile::create(cached->body);
-    cached->backend = "cpu";  // planets have no GPU path yet
-    cache_.insert(cache_key, cached);
-    store_shared(cache_key, *cached);
-    return product_response(reply, cached);
+    Result<terrain::Product> product = tiles->make(q.scheme, q.address, q.format, q.options);
+    if (!product) return problem(reply.shadow(), "Bad tile request", product.error());
+    CachedProduct bytes = product_bytes(std::move(product).value());
+    bytes.backend = "cpu";  // planets have no GPU path yet
+    return bytes;
   };
-  return deferred;
+  return serve_product(std::move(job));
 }
 
 }  // namespace server

@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "app_http.hpp"
 #include "app_support.hpp"
 
 namespace server {
@@ -282,14 +283,9 @@ Response App::client_file(const Request& request, const Target& target) const {
   for (const std::string& seg : target.segments) path += "/" + seg;
   if (path.empty() || target.folder) path += "/";
   if (const StaticFile* file = client_.find(path)) {
-    if (detail::etag_matches(request, file->etag)) {
-      Response r = make_response(request, http::status::not_modified, "", file->media_type);
-      r.set(http::field::etag, file->etag);
-      return r;
-    }
     Response r = make_response(request, http::status::ok, Payload(file->body), file->media_type);
-    r.set(http::field::etag, file->etag);
-    r.set(http::field::cache_control, "public, max-age=60");
+    r.set(http::field::cache_control, detail::kReleaseCacheControl);
+    detail::answer_conditionally(request, r, file->etag);
     return r;
   }
   if (!path.ends_with('/') && client_.find(path + "/") != nullptr) {

@@ -193,18 +193,10 @@ Response App::get_scene(const Request& request, const std::string& ref) {
   if (!loaded) return loaded.error();
   const std::string etag = version_etag(loaded->version);
   const bool pinned = ref.find('@') != std::string::npos;
-  auto cache_headers = [&](Response& r) {
-    r.set(http::field::etag, etag);
-    r.set(http::field::cache_control, cache_policy(pinned));
-  };
-  if (etag_matches(request, etag)) {
-    Response r = make_response(request, http::status::not_modified, "", "application/json");
-    cache_headers(r);
-    return r;
-  }
   Response r = json_response(request, http::status::ok, loaded->scene->canonical);
-  cache_headers(r);
+  r.set(http::field::cache_control, cache_policy(pinned));
   r.set("X-Scene-Version", std::to_string(loaded->version.version));
+  answer_conditionally(request, r, etag);
   return r;
 }
 

@@ -36,6 +36,8 @@ inline constexpr const char* kImmutable = "public, max-age=31536000, immutable";
 inline constexpr const char* kHeadCacheControl = "public, max-age=5, must-revalidate";
 /// "default" names whatever config/planets/default.json holds, which a restart may change.
 inline constexpr const char* kAliasCacheControl = "public, max-age=60, must-revalidate";
+/// What a server release may change (the client's files, the node types, the shared GLSL).
+inline constexpr const char* kReleaseCacheControl = "public, max-age=60";
 /// The policy of a product of a pinned version or of a head ref.
 inline const char* cache_policy(bool pinned) {
   return pinned ? kImmutable : kHeadCacheControl;

@@ -148,7 +148,7 @@ class App {
   /// and the headers that the URL alone decides.
   struct ProductRoute {
     std::string cache_key;
-    std::string cache_control;
+    const char* cache_control;  ///< a static policy (detail::kImmutable, …)
     std::optional<terrain::Gray16Encoding> gray16;
   };
   struct TargetHash {
@@ -171,6 +171,12 @@ class App {
   Response get_scene(const Request& request, const std::string& ref);
   Response versions(const Request& request, const std::string& id);
   Response upload_image(const Request& request);
+  /// One product on its way through the caches to the generation pool (app_http.hpp).
+  struct ProductJob;
+  /// The product from the memory cache, the shared caches or `reuse`, else its making as Deferred
+  /// work that keeps what it made in every cache: the one pipeline of tiles, meshes, pictures
+  /// and trace bundles, of scenes and planets (app_products.cpp).
+  Outcome serve_product(ProductJob job);
   Outcome scene_product(const Request& request, const std::string& ref,
                         const std::vector<std::string>& rest, const Target& target);
   /// What a picture request returns: the shaded picture, or its ray distances.
