@@ -324,10 +324,7 @@ void App::remember_product_route(const Request& request, ProductRoute route) {
 Outcome App::handle(const Request& request) {
   try {
     // A cached immutable tile asked for again: the same answer as the full route below gives.
-    if (std::optional<Response> known = cached_product(request)) {
-      add_cors(request, *known);
-      return std::move(*known);
-    }
+    if (std::optional<Response> known = cached_product(request)) return std::move(*known);
     const std::string_view raw(request.target().data(), request.target().size());
     if (raw.empty() || raw.front() != '/') {
       return problem(request, http::status::bad_request, "Bad request target",
@@ -374,9 +371,7 @@ Outcome App::handle(const Request& request) {
                      "the path or query is malformed (bad percent-encoding, control "
                      "characters, dot segments or too many parameters)");
     }
-    Outcome outcome = route(request, target);
-    if (Response* r = std::get_if<Response>(&outcome)) add_cors(request, *r);
-    return outcome;
+    return route(request, target);
   } catch (const std::exception& e) {
     // A broken internal contract: answer 500 rather than drop the connection.
     return problem(request, http::status::internal_server_error, "Internal error", e.what());
@@ -427,24 +422,25 @@ terrain::Result<std::string, Response> App::public_origin(const Request& request
 Outcome App::off_io_thread(const Request& request, std::function<Response(const Request&)> work) {
   auto copy = std::make_shared<const Request>(request);
   Deferred deferred;
-  deferred.work = [this, copy, work = std::move(work)]() -> Response {
-    Response response = work(*copy);
-    add_cors(*copy, response);
-    return response;
-  };
+  deferred.work = [copy, work = std::move(work)]() -> Response { return work(*copy); };
   return deferred;
 }
 
 Response settle(App& app, const Request& request) {
-  for (int pass = 0;; ++pass) {
-    Outcome outcome = app.handle(request);
-    Deferred* deferred = std::get_if<Deferred>(&outcome);
-    if (deferred == nullptr) return std::move(std::get<Response>(outcome));
-    if (!deferred->prepare) return deferred->work();
-    std::optional<Response> answer = deferred->prepare();
-    if (answer) return std::move(*answer);
-    assert(pass == 0);  // prepared once, the request is handled without another
-  }
+  auto answer = [&]() -> Response {
+    for (int pass = 0;; ++pass) {
+      Outcome outcome = app.handle(request);
+      Deferred* deferred = std::get_if<Deferred>(&outcome);
+      if (deferred == nullptr) return std::move(std::get<Response>(outcome));
+      if (!deferred->prepare) return deferred->work();
+      std::optional<Response> prepared = deferred->prepare();
+      if (prepared) return std::move(*prepared);
+      assert(pass == 0);  // prepared once, the request is handled without another
+    }
+  };
+  Response response = answer();
+  app.add_cors(request, response);
+  return response;
 }
 
 Response App::authorize(const Request& request) const {

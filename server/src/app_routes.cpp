@@ -224,7 +224,6 @@ Outcome App::route(const Request& request, const Target& target) {
   const http::verb method = request.method();
   if (method == http::verb::options) {
     Response r = make_response(request, http::status::no_content, "", "text/plain");
-    add_cors(request, r);
     r.set(http::field::access_control_allow_methods, "GET, HEAD, POST, PUT, OPTIONS");
     r.set(http::field::access_control_allow_headers,
           "Authorization, Content-Type, If-Match, If-None-Match");
@@ -253,9 +252,7 @@ Outcome App::route(const Request& request, const Target& target) {
                       ref = match->ref]() -> std::optional<Response> {
         auto loaded = resolve(*copy, ref);
         if (loaded) return std::nullopt;
-        Response refusal = loaded.error();
-        add_cors(*copy, refusal);
-        return refusal;
+        return loaded.error();
       };
       return load;
     }

@@ -462,8 +462,15 @@ struct HttpServer::State {
       }
       response = problem(request, http::status::internal_server_error, "Internal error", what);
     }
-    if (response) app.add_cors(request, *response);
     co_return response;
+  }
+
+  // The answer to a request that could not be read: there is no method, target or Origin to
+  // answer by, and the connection closes after it.
+  static Response unreadable(http::status status, std::string_view title, std::string_view detail) {
+    Request bare{http::verb::get, "/", 11};
+    bare.keep_alive(false);
+    return problem(bare, status, title, detail);
   }
 
   // Answers a request that is refused before its body is read, and closes (the unread body
@@ -527,24 +534,21 @@ struct HttpServer::State {
       deadline.disarm();
       const auto started = std::chrono::steady_clock::now();
       if (ec) {
-        Request bare{http::verb::get, "/", 11};
-        bare.keep_alive(false);
         if (header_timed_out && !stopping && buffer.size() > 0) {
           co_await write(*stream, deadline,
-                         problem(bare, http::status::request_timeout, "Request timeout",
-                                 "the request header did not arrive in time"));
+                         unreadable(http::status::request_timeout, "Request timeout",
+                                    "the request header did not arrive in time"));
         } else if (ec == http::error::header_limit) {
           co_await write(
               *stream, deadline,
-              problem(bare, http::status::request_header_fields_too_large, "Header too large",
-                      "request headers are limited to " + std::to_string(config.header_limit) +
-                          " bytes"));
+              unreadable(http::status::request_header_fields_too_large, "Header too large",
+                         "request headers are limited to " + std::to_string(config.header_limit) +
+                             " bytes"));
         } else if (!header_timed_out && ec != http::error::end_of_stream &&
                    ec != asio::error::operation_aborted && ec != asio::error::eof &&
                    ec != asio::error::connection_reset && ec != asio::error::bad_descriptor) {
-          co_await write(
-              *stream, deadline,
-              problem(bare, http::status::bad_request, "Malformed request", ec.message()));
+          co_await write(*stream, deadline,
+                         unreadable(http::status::bad_request, "Malformed request", ec.message()));
         }
         break;
       }
@@ -634,23 +638,21 @@ struct HttpServer::State {
         const bool body_timed_out = deadline.expired();
         deadline.disarm();
         if (ec) {
-          Request bare{http::verb::get, "/", 11};
-          bare.keep_alive(false);
           if (ec == http::error::body_limit) {
-            co_await write(
-                *stream, deadline,
-                problem(bare, http::status::payload_too_large, "Body too large",
-                        "this route accepts at most " + std::to_string(policy.limit) + " bytes"));
+            co_await write(*stream, deadline,
+                           unreadable(http::status::payload_too_large, "Body too large",
+                                      "this route accepts at most " + std::to_string(policy.limit) +
+                                          " bytes"));
           } else if (body_timed_out) {
             co_await write(*stream, deadline,
-                           problem(bare, http::status::request_timeout, "Request timeout",
-                                   "the request body did not arrive in time"));
+                           unreadable(http::status::request_timeout, "Request timeout",
+                                      "the request body did not arrive in time"));
           } else if (ec.category() == http::make_error_code(http::error::bad_target).category() &&
                      ec != http::error::partial_message && ec != http::error::end_of_stream) {
             // A malformed body (bad chunk framing, say); a client that went away gets nothing.
             co_await write(
                 *stream, deadline,
-                problem(bare, http::status::bad_request, "Malformed request", ec.message()));
+                unreadable(http::status::bad_request, "Malformed request", ec.message()));
           }
           break;
         }
@@ -684,6 +686,7 @@ struct HttpServer::State {
           break;
         }
       }
+      app.add_cors(request, response);  // the one place a handled request's answer gets CORS
       const auto code = response.result_int();
       if (!response.has_content_length() && code != 204 && code != 304 && code >= 200) {
         response.content_length(response.body().size());  // the framing a keep-alive client needs

@@ -760,6 +760,43 @@ TEST_F(HttpApi, CorsAllowsOnlyTheConfiguredOrigin) {
   }
 }
 
+TEST_F(HttpApi, CorsReachesErrorsAndRefusalsToo) {
+  // Errors are answers a browser must be able to read: the unknown scene (answered on the I/O
+  // thread), the bad tile address (after loading the version on the pool) and the body sent to
+  // a route that takes none (refused before the body is read).
+  const std::vector<std::pair<std::string, unsigned>> cases = {
+      {"/api/v1/scenes/no-such-scene/program", 404u},
+      {"/api/v1/scenes/hills-river@1/tiles/40/0/0.png", 400u}};
+  for (const auto& [url, status] : cases) {
+    SCOPED_TRACE(url);
+    const Response r = get(url, {{"Origin", "https://a.example"}});
+    EXPECT_EQ(r.result_int(), status);
+    EXPECT_EQ(header(r, http::field::access_control_allow_origin), "https://a.example");
+  }
+  const Response refused = fetch("POST", "/healthz", {{"Origin", "https://a.example"}}, "{}");
+  EXPECT_GE(refused.result_int(), 400u);
+  EXPECT_EQ(header(refused, http::field::access_control_allow_origin), "https://a.example");
+}
+
+TEST_F(HttpApi, NotModifiedKeepsTheHeadersOfItsOk) {
+  // RFC 9110 §15.4.5: a 304 carries the ETag, Cache-Control and Vary its 200 would.
+  for (const char* url : {"/api/v1/scenes/hills-river@1", "/api/v1/scenes/hills-river@1/program",
+                          "/api/v1/scenes/hills-river@1/tiles/0/0/0.png", "/api/v1/glsl/trace.glsl",
+                          "/api/v1/node-types", "/"}) {
+    SCOPED_TRACE(url);
+    const Response ok = get(url);
+    ASSERT_EQ(ok.result_int(), 200u);
+    const std::string etag = header(ok, http::field::etag);
+    ASSERT_FALSE(etag.empty());
+    const Response again = get(url, {{"If-None-Match", etag}});
+    EXPECT_EQ(again.result_int(), 304u);
+    EXPECT_TRUE(again.body().empty());
+    EXPECT_EQ(header(again, http::field::etag), etag);
+    EXPECT_EQ(header(again, http::field::cache_control), header(ok, http::field::cache_control));
+    EXPECT_EQ(header(again, http::field::vary), header(ok, http::field::vary));
+  }
+}
+
 TEST_F(HttpApi, CorsPreflightIs204WithAllowedMethods) {
   const Response r = fetch("OPTIONS", "/api/v1/scenes/hills-river",
                            {{"Origin", "https://a.example"},

@@ -63,7 +63,8 @@ class App {
  public:
   App(Config config, std::unique_ptr<Store> store);
 
-  /// Routes one request. Never throws; errors are problem+json responses.
+  /// Routes one request. Never throws; errors are problem+json responses. The answer carries no
+  /// CORS headers yet: whoever sends it adds them (add_cors), once, on the way out.
   Outcome handle(const Request& request);
 
   /// Loads the built-in example scenes (config.scenes_dir) when the store holds no scene yet;
@@ -93,7 +94,8 @@ class App {
 
   /// The route label a request counts under in /metrics.
   static std::string_view route_label(const Request& request);
-  /// Adds the CORS headers the configuration allows for this request's Origin.
+  /// Adds the CORS headers the configuration allows for this request's Origin: the session does,
+  /// to every answer of a request it could read, and settle() does.
   void add_cors(const Request& request, Response& response) const;
 
   // Live editing (docs/live.md; app_live.cpp).
@@ -304,8 +306,8 @@ class App {
   std::jthread sweeper_;          ///< reads followed scenes' heads (with a bus)
 };
 
-/// Handles a request to its answer on the calling thread, deferred work included (what the
-/// session does across its threads): for tests and tools.
+/// Handles a request to its answer on the calling thread, deferred work included, CORS added
+/// (what the session does across its threads): for tests and tools.
 Response settle(App& app, const Request& request);
 
 }  // namespace server
