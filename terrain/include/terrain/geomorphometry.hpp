@@ -1,0 +1,73 @@
+// Geomorphometry of an elevation grid (docs/analysis.md): pits, closed depressions, Flint's law
+// over channel cells, Strahler orders and Horton's bifurcation ratio, drainage density and the
+// hypsometric integral — the figures that tell land shaped by rivers from noise. A pure,
+// deterministic function of the grid (drainage.hpp does the routing).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "terrain/drainage.hpp"
+#include "terrain/result.hpp"
+
+namespace terrain {
+
+struct AnalysisOptions {
+  /// Cells draining at least this many m² are channel cells; 0 means 1% of the grid's area
+  /// (width · height · cell_size²).
+  double channel_area = 0.0;
+  /// A land cell is in a closed depression when filling raises it by more than this (metres).
+  double depression_epsilon = 1e-3;
+};
+
+/// A least-squares fit of log10 S = log10 k_s − θ · log10 A over channel cells with S > 0.
+struct FlintFit {
+  double theta = 0.0;      ///< concavity θ
+  double steepness = 0.0;  ///< k_s, in the units of S at A = 1 m²
+  double r_squared = 0.0;  ///< coefficient of determination of the log-log fit
+  std::int64_t cells = 0;  ///< channel cells in the fit
+};
+
+struct Geomorphometry {
+  int width = 0;
+  int height = 0;
+  double cell_size = 0.0;  ///< metres
+  std::int64_t land_cells = 0;
+  std::int64_t pits = 0;                 ///< interior land cells with no lower D8 neighbour (raw)
+  double pit_share = 0.0;                ///< pits / land cells
+  double depression_epsilon = 0.0;       ///< metres, the threshold used
+  std::int64_t depression_cells = 0;     ///< land cells raised by filling > depression_epsilon
+  double closed_depression_share = 0.0;  ///< depression_cells / land cells
+  double channel_area = 0.0;             ///< threshold used, m²
+  std::int64_t channel_cells = 0;
+  double max_drainage_area = 0.0;  ///< m², the largest over land cells
+  std::optional<FlintFit> flint;   ///< none with fewer than 3 cells or no spread in area
+  int max_strahler_order = 0;
+  std::vector<std::int64_t> streams_per_order;  ///< [ω − 1] = number of streams of order ω
+  /// Horton's R_b = 10^(−slope) of the least-squares line of log10 N_ω against ω; none below
+  /// order 2.
+  std::optional<double> bifurcation_ratio;
+  double channel_length = 0.0;                 ///< metres, over channel cells to their receivers
+  double drainage_density = 0.0;               ///< channel length / land area, 1/km
+  std::optional<double> hypsometric_integral;  ///< (mean − min) / (max − min); none if flat
+  double min_elevation = 0.0;                  ///< over land cells (0 when there is no land)
+  double max_elevation = 0.0;
+  double mean_elevation = 0.0;
+};
+
+/// Routes the grid (route_drainage) and computes every figure. Errors name the field, as
+/// route_drainage's, plus /channel_area and /depression_epsilon (finite and ≥ 0).
+Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options = {});
+
+/// The same from a routing already made (`grid` must be the one `drainage` was routed from).
+Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& drainage,
+                               const AnalysisOptions& options = {});
+
+/// The figures as JSON; field names and definitions are in docs/analysis.md. Figures that are
+/// undefined (no fit, order below 2, flat land) are null.
+nlohmann::json to_json(const Geomorphometry& g);
+
+}  // namespace terrain

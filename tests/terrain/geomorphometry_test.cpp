@@ -1,0 +1,406 @@
+// Drainage and geomorphometry (docs/analysis.md) on surfaces with known answers: planes, a bowl,
+// cones, a valley built to follow Flint's law, hand-made stream networks, and the CLI.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "terrain/drainage.hpp"
+#include "terrain/geomorphometry.hpp"
+
+namespace terrain {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// A width × height grid of f(i, j).
+std::vector<float> make_grid(int width, int height, const std::function<double(int, int)>& f) {
+  std::vector<float> z(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+  for (int j = 0; j < height; ++j) {
+    for (int i = 0; i < width; ++i) {
+      z[static_cast<std::size_t>(j) * static_cast<std::size_t>(width) +
+        static_cast<std::size_t>(i)] = static_cast<float>(f(i, j));
+    }
+  }
+  return z;
+}
+
+Geomorphometry analyze_or_die(const ElevationGrid& grid, const AnalysisOptions& options = {}) {
+  Result<Geomorphometry> g = analyze(grid, options);
+  EXPECT_TRUE(g.ok()) << (g.ok() ? "" : g.error().pointer + ": " + g.error().message);
+  return g.ok() ? std::move(g).value() : Geomorphometry{};
+}
+
+Drainage route_or_die(const ElevationGrid& grid) {
+  Result<Drainage> d = route_drainage(grid);
+  EXPECT_TRUE(d.ok()) << (d.ok() ? "" : d.error().pointer + ": " + d.error().message);
+  return d.ok() ? std::move(d).value() : Drainage{};
+}
+
+/// Where water from cell c leaves the grid: the last cell of its receiver chain.
+std::int32_t outlet_of(const Drainage& d, std::int32_t c) {
+  for (std::size_t steps = 0; steps <= d.cells(); ++steps) {
+    const std::int32_t r = d.receiver[static_cast<std::size_t>(c)];
+    if (r < 0) return c;
+    c = r;
+  }
+  return -2;  // a cycle
+}
+
+TEST(Geomorphometry, AnInclinedPlaneHasNoPitsAndEveryCellReachesTheEdge) {
+  const int w = 60, h = 40;
+  const std::vector<float> z = make_grid(w, h, [](int i, int j) { return 3.0 * i + 1.0 * j; });
+  const ElevationGrid grid{w, h, 10.0, z};
+  const Geomorphometry g = analyze_or_die(grid);
+  EXPECT_EQ(g.land_cells, w * h);
+  EXPECT_EQ(g.pits, 0);
+  EXPECT_EQ(g.depression_cells, 0);
+  EXPECT_EQ(g.closed_depression_share, 0.0);
+  ASSERT_TRUE(g.hypsometric_integral.has_value());
+  EXPECT_NEAR(*g.hypsometric_integral, 0.5, 1e-6);
+
+  // Mass balance: what the edge cells collect is the whole grid's area.
+  const Drainage d = route_or_die(grid);
+  double collected = 0.0;
+  for (std::size_t c = 0; c < d.cells(); ++c) {
+    if (d.receiver[c] < 0) collected += d.area[c];
+    EXPECT_GE(outlet_of(d, static_cast<std::int32_t>(c)), 0) << "cell " << c;
+  }
+  EXPECT_DOUBLE_EQ(collected, w * h * 100.0);
+}
+
+TEST(Geomorphometry, ABowlIsOneClosedDepressionFilledToItsSpillLevel) {
+  const int n = 41, centre = 20;
+  const std::vector<float> z = make_grid(
+      n, n, [](int i, int j) { return (i - centre) * (i - centre) + (j - centre) * (j - centre); });
+  const ElevationGrid grid{n, n, 5.0, z};
+  const Geomorphometry g = analyze_or_die(grid);
+  EXPECT_EQ(g.pits, 1);  // the centre
+  // The lowest edge cell is the middle of a side, 20² above the centre: the bowl fills to it.
+  const double spill = centre * centre;
+  const Drainage d = route_or_die(grid);
+  std::int64_t expected = 0;
+  for (std::size_t c = 0; c < z.size(); ++c) {
+    if (spill - z[c] > 1e-3) ++expected;
+    EXPECT_NEAR(d.filled[c], std::max<double>(z[c], spill), 1e-6) << "cell " << c;
+  }
+  EXPECT_GT(expected, 1000);
+  EXPECT_EQ(g.depression_cells, expected);
+  EXPECT_DOUBLE_EQ(g.closed_depression_share, static_cast<double>(expected) / (n * n));
+  // Filled, the bowl still drains: every cell reaches the edge.
+  for (std::size_t c = 0; c < d.cells(); ++c) {
+    EXPECT_GE(outlet_of(d, static_cast<std::int32_t>(c)), 0) << "cell " << c;
+  }
+}
+
+TEST(Geomorphometry, AConeHasNoPitsAndNoDepressions) {
+  const int n = 51, centre = 25;
+  const std::vector<float> z = make_grid(
+      n, n, [](int i, int j) { return 1000.0 - 20.0 * std::hypot(i - centre, j - centre); });
+  const Geomorphometry g = analyze_or_die({n, n, 20.0, z});
+  EXPECT_EQ(g.pits, 0);
+  EXPECT_EQ(g.depression_cells, 0);
+}
+
+TEST(Geomorphometry, AnInvertedConeDrainsThroughItsOneOutlet) {
+  // The centre has no data: the one outlet every interior cell drains to.
+  const int n = 41, centre = 20;
+  std::vector<float> z = make_grid(
+      n, n, [](int i, int j) { return 100.0 + 10.0 * std::hypot(i - centre, j - centre); });
+  const auto outlet = static_cast<std::int32_t>(centre * n + centre);
+  z[static_cast<std::size_t>(outlet)] = std::numeric_limits<float>::quiet_NaN();
+  const ElevationGrid grid{n, n, 10.0, z};
+  const Geomorphometry g = analyze_or_die(grid);
+  EXPECT_EQ(g.land_cells, n * n - 1);
+  EXPECT_EQ(g.pits, 0);
+  EXPECT_EQ(g.depression_cells, 0);
+  const Drainage d = route_or_die(grid);
+  for (int j = 1; j + 1 < n; ++j) {
+    for (int i = 1; i + 1 < n; ++i) {
+      EXPECT_EQ(outlet_of(d, j * n + i), outlet) << "cell " << i << ", " << j;
+    }
+  }
+}
+
+TEST(Geomorphometry, SeaAndNoDataAreNotLandAndActAsOutlets) {
+  // A ramp rising from the sea at x < 10, with a hole of no data in the land.
+  const int w = 30, h = 20;
+  std::vector<float> z = make_grid(w, h, [](int i, int) { return 2.0 * (i - 10) + 1.0; });
+  z[static_cast<std::size_t>(10 * w + 20)] = std::numeric_limits<float>::quiet_NaN();
+  const ElevationGrid grid{w, h, 1.0, z, 0.0f};
+  const Geomorphometry g = analyze_or_die(grid);
+  EXPECT_EQ(g.land_cells, (w - 10) * h - 1);
+  EXPECT_EQ(g.pits, 0);
+  EXPECT_DOUBLE_EQ(g.min_elevation, 1.0);
+  const Drainage d = route_or_die(grid);
+  for (std::size_t c = 0; c < d.cells(); ++c) {
+    EXPECT_EQ(d.area[c] > 0.0, d.land[c] != 0);
+  }
+  // A water mask takes cells out of the land the same way.
+  std::vector<std::uint8_t> water(z.size(), 0);
+  water[static_cast<std::size_t>(5 * w + 25)] = 1;
+  const Geomorphometry masked = analyze_or_die({w, h, 1.0, z, 0.0f, water});
+  EXPECT_EQ(masked.land_cells, g.land_cells - 1);
+}
+
+// A straight valley up the middle column of a grid, hillslopes rising at slope 1 on either side
+// draining straight into it, so valley cell j (rows 1..H−2; rows 0 and H−1 are the edge) drains
+// A_j = (W − 2)(H − 1 − j) cells. Its bed descends by S_j = k_s · A_j^−θ per cell length: a
+// stream-power surface in equilibrium (S = (U/K)^(1/n) A^(−m/n)).
+TEST(Geomorphometry, ASyntheticStreamPowerSurfaceFollowsFlintsLaw) {
+  const int w = 41, h = 301, valley = 20;
+  const double cell = 30.0, theta = 0.45, k_s = 20.0;
+  auto area = [&](int j) { return (w - 2) * (h - 1 - std::min(j, h - 2)) * cell * cell; };
+  std::vector<double> bed(h, 0.0);
+  for (int j = 1; j < h; ++j) bed[j] = bed[j - 1] + cell * k_s * std::pow(area(j), -theta);
+  const std::vector<float> z =
+      make_grid(w, h, [&](int i, int j) { return bed[j] + cell * std::abs(i - valley); });
+  const ElevationGrid grid{w, h, cell, z};
+
+  const Drainage d = route_or_die(grid);
+  for (int j = 1; j + 1 < h; ++j) {
+    EXPECT_DOUBLE_EQ(d.area[static_cast<std::size_t>(j * w + valley)], area(j)) << "row " << j;
+  }
+  AnalysisOptions options;
+  options.channel_area = area(h - 4);  // valley cells of rows 1..H−4: hillslopes drain far less
+  const Geomorphometry g = analyze_or_die(grid, options);
+  EXPECT_EQ(g.pits, 0);
+  EXPECT_EQ(g.channel_cells, h - 3);  // rows 0..H−4; row 0 is an outlet, out of the fit
+  ASSERT_TRUE(g.flint.has_value());
+  EXPECT_EQ(g.flint->cells, h - 4);
+  EXPECT_NEAR(g.flint->theta, theta, 2e-3);
+  EXPECT_NEAR(g.flint->steepness, k_s, 0.02 * k_s);
+  EXPECT_GT(g.flint->r_squared, 0.9999);
+  // One unbranched stream.
+  EXPECT_EQ(g.max_strahler_order, 1);
+  EXPECT_EQ(g.streams_per_order, std::vector<std::int64_t>{1});
+  EXPECT_FALSE(g.bifurcation_ratio.has_value());
+  EXPECT_NEAR(g.channel_length, (h - 4) * cell, 1e-9);
+  EXPECT_NEAR(g.drainage_density, (h - 4) * cell / (w * h * cell * cell) * 1e3, 1e-12);
+}
+
+TEST(Geomorphometry, AConfluenceOfTwoFirstOrderStreamsHasOrderTwo) {
+  // 0 ─┐
+  //    2 ── 3 ── outlet      (a Y)
+  // 1 ─┘
+  const std::vector<std::int32_t> receiver{2, 2, 3, -1};
+  const std::vector<std::int32_t> order{3, 2, 0, 1};  // receivers first
+  const std::vector<std::uint8_t> channel{1, 1, 1, 1};
+  EXPECT_EQ(strahler_orders(receiver, order, channel), (std::vector<int>{1, 1, 2, 2}));
+}
+
+TEST(Geomorphometry, AFirstOrderTributaryDoesNotRaiseASecondOrderStream) {
+  // The Y above, then a first-order stream 4 joins at 3; cell 5 is not a channel.
+  const std::vector<std::int32_t> receiver{2, 2, 3, -1, 3, 4};
+  const std::vector<std::int32_t> order{3, 2, 4, 5, 0, 1};
+  const std::vector<std::uint8_t> channel{1, 1, 1, 1, 1, 0};
+  EXPECT_EQ(strahler_orders(receiver, order, channel), (std::vector<int>{1, 1, 2, 2, 1, 0}));
+}
+
+TEST(Geomorphometry, TwoSecondOrderStreamsMakeOrderThree) {
+  // Two Ys (0, 1 → 2 and 3, 4 → 5) meeting at 6.
+  const std::vector<std::int32_t> receiver{2, 2, 6, 5, 5, 6, -1};
+  const std::vector<std::int32_t> order{6, 5, 2, 4, 3, 1, 0};
+  const std::vector<std::uint8_t> channel(7, 1);
+  EXPECT_EQ(strahler_orders(receiver, order, channel), (std::vector<int>{1, 1, 2, 1, 1, 2, 3}));
+}
+
+/// Rough, deterministic terrain: integer-hashed noise on a tilted plane, full of pits.
+std::vector<float> rough_surface(int w, int h) {
+  return make_grid(w, h, [](int i, int j) {
+    std::uint32_t x =
+        static_cast<std::uint32_t>(i) * 73856093u ^ static_cast<std::uint32_t>(j) * 19349663u;
+    x ^= x >> 13;
+    x *= 0x5bd1e995u;
+    x ^= x >> 15;
+    return 0.5 * i + 0.2 * j + 8.0 * (x & 0xffffu) / 65535.0;
+  });
+}
+
+TEST(Geomorphometry, TheSameGridGivesTheSameBits) {
+  const int w = 97, h = 83;
+  const std::vector<float> z = rough_surface(w, h);
+  const ElevationGrid grid{w, h, 12.5, z};
+  const Drainage a = route_or_die(grid);
+  const Drainage b = route_or_die(grid);
+  ASSERT_EQ(a.cells(), b.cells());
+  EXPECT_EQ(std::memcmp(a.filled.data(), b.filled.data(), a.cells() * sizeof(double)), 0);
+  EXPECT_EQ(std::memcmp(a.area.data(), b.area.data(), a.cells() * sizeof(double)), 0);
+  EXPECT_EQ(a.receiver, b.receiver);
+  EXPECT_EQ(a.order, b.order);
+  const Geomorphometry g = analyze_or_die(grid);
+  EXPECT_EQ(to_json(g).dump(), to_json(analyze_or_die(grid)).dump());
+  // And the figures are sane: rough noise has pits and depressions, every cell still drains.
+  EXPECT_GT(g.pits, 0);
+  EXPECT_GT(g.closed_depression_share, 0.0);
+  EXPECT_LT(g.closed_depression_share, 1.0);
+  for (std::size_t c = 0; c < a.cells(); ++c) {
+    EXPECT_GE(outlet_of(a, static_cast<std::int32_t>(c)), 0);
+  }
+}
+
+TEST(Geomorphometry, MalformedInputIsRefusedNamingTheField) {
+  const std::vector<float> z(16, 1.0f);
+  const std::vector<std::uint8_t> short_water(3, 0);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  struct Case {
+    ElevationGrid grid;
+    AnalysisOptions options;
+    const char* pointer;
+  };
+  AnalysisOptions negative_area, nan_epsilon;
+  negative_area.channel_area = -1.0;
+  nan_epsilon.depression_epsilon = std::nan("");
+  const Case cases[] = {
+      {{0, 4, 1.0, z}, {}, "/width"},
+      {{4, 0, 1.0, z}, {}, "/height"},
+      {{-3, 4, 1.0, z}, {}, "/width"},
+      {{kMaxGridSide + 1, 1, 1.0, z}, {}, "/width"},
+      {{kMaxGridSide, kMaxGridSide, 1.0, z}, {}, "/width"},  // more than kMaxGridCells
+      {{4, 4, 0.0, z}, {}, "/cell_size"},
+      {{4, 4, -2.0, z}, {}, "/cell_size"},
+      {{4, 4, std::nan(""), z}, {}, "/cell_size"},
+      {{4, 4, inf, z}, {}, "/cell_size"},
+      {{4, 5, 1.0, z}, {}, "/elevation"},
+      {{4, 4, 1.0, z, std::nullopt, short_water}, {}, "/water"},
+      {{4, 4, 1.0, z, nan}, {}, "/sea_level"},
+      {{4, 4, 1.0, z}, negative_area, "/channel_area"},
+      {{4, 4, 1.0, z}, nan_epsilon, "/depression_epsilon"},
+  };
+  for (const Case& c : cases) {
+    const Result<Geomorphometry> g = analyze(c.grid, c.options);
+    ASSERT_FALSE(g.ok()) << c.pointer;
+    EXPECT_EQ(g.error().pointer, c.pointer) << g.error().message;
+    EXPECT_EQ(g.error().kind, ErrorKind::invalid);
+    EXPECT_FALSE(g.error().message.empty());
+  }
+  // Degenerate but valid: one cell, all sea, all flat.
+  EXPECT_TRUE(analyze({1, 1, 1.0, std::span<const float>(z).first(1)}).ok());
+  const Geomorphometry sea = analyze_or_die({4, 4, 1.0, z, 5.0f});
+  EXPECT_EQ(sea.land_cells, 0);
+  EXPECT_FALSE(sea.hypsometric_integral.has_value());
+  EXPECT_TRUE(to_json(sea)["hypsometric_integral"].is_null());
+  const Geomorphometry flat = analyze_or_die({4, 4, 1.0, z});
+  EXPECT_EQ(flat.pits, 4);  // the interior cells have no lower neighbour
+}
+
+// ---------------------------------------------------------------------------------------------
+// The CLI
+
+const fs::path kScenes = fs::path(TERRAIN_SOURCE_DIR) / "config" / "scenes";
+
+/// Runs the CLI with `arguments`, returning its exit status and stdout.
+std::pair<int, std::string> run_cli(const std::string& arguments) {
+  const fs::path out =
+      fs::temp_directory_path() / ("terrain-analyze-" + std::to_string(::getpid()) + ".json");
+  const std::string command =
+      std::string(TERRAIN_CLI) + " " + arguments + " > " + out.string() + " 2> /dev/null";
+  const int status = std::system(command.c_str());
+  std::ifstream in(out);
+  std::stringstream text;
+  text << in.rdbuf();
+  fs::remove(out);
+  return {status, text.str()};
+}
+
+void expect_sane_figures(const nlohmann::json& j, int size) {
+  EXPECT_EQ(j["grid"]["width"], size);
+  EXPECT_EQ(j["grid"]["height"], size);
+  EXPECT_GT(j["grid"]["cell_size_m"].get<double>(), 0.0);
+  const auto land = j["land_cells"].get<std::int64_t>();
+  EXPECT_GT(land, 0);
+  EXPECT_LE(land, std::int64_t{size} * size);
+  for (const auto& share : {j["pits"]["share"], j["closed_depression_share"]}) {
+    EXPECT_GE(share.get<double>(), 0.0);
+    EXPECT_LE(share.get<double>(), 1.0);
+  }
+  EXPECT_EQ(j["closed_depression_share"], j["closed_depressions"]["share"]);
+  EXPECT_GE(j["drainage_density_per_km"].get<double>(), 0.0);
+  EXPECT_GT(j["channels"]["cells"].get<std::int64_t>(), 0);
+  const int order = j["strahler"]["max_order"];
+  EXPECT_GE(order, 1);
+  EXPECT_EQ(j["strahler"]["streams_per_order"].size(), static_cast<std::size_t>(order));
+  EXPECT_TRUE(j["strahler"].contains("bifurcation_ratio"));
+  ASSERT_TRUE(j["flint"].is_object());
+  EXPECT_GE(j["flint"]["r_squared"].get<double>(), 0.0);
+  EXPECT_LE(j["flint"]["r_squared"].get<double>(), 1.0);
+  EXPECT_TRUE(std::isfinite(j["flint"]["theta"].get<double>()));
+  EXPECT_GT(j["flint"]["cells"].get<std::int64_t>(), 0);
+  ASSERT_TRUE(j["hypsometric_integral"].is_number());
+  EXPECT_GE(j["hypsometric_integral"].get<double>(), 0.0);
+  EXPECT_LE(j["hypsometric_integral"].get<double>(), 1.0);
+}
+
+TEST(Geomorphometry, TheCliAnalyzesAnExampleScene) {
+  const auto [status, text] =
+      run_cli("analyze " + (kScenes / "hills-river.json").string() + " --size 128");
+  ASSERT_EQ(status, 0);
+  const nlohmann::json j = nlohmann::json::parse(text);
+  expect_sane_figures(j, 128);
+  EXPECT_EQ(j["input"]["kind"], "scene");
+  EXPECT_EQ(j["input"]["water_cells"], 0);
+}
+
+TEST(Geomorphometry, TheCliTakesTheWaterLayerOutOfTheLand) {
+  const auto [status, text] =
+      run_cli("analyze " + (kScenes / "lake-dunes.json").string() + " --size 128");
+  ASSERT_EQ(status, 0);
+  const nlohmann::json j = nlohmann::json::parse(text);
+  expect_sane_figures(j, 128);
+  EXPECT_GT(j["input"]["water_cells"].get<std::int64_t>(), 0);
+  EXPECT_EQ(j["land_cells"].get<std::int64_t>() + j["input"]["water_cells"].get<std::int64_t>(),
+            128 * 128);
+}
+
+class GeomorphometryGeoTiff : public testing::TestWithParam<const char*> {};
+
+// `terrain grid` writes the grid `analyze` evaluates, north up, with its pixel size (a pixel
+// scale, or a transformation for mountain-range's rotated plane).
+TEST_P(GeomorphometryGeoTiff, TheCliReadsTheCellSize) {
+  const fs::path tif =
+      fs::temp_directory_path() / ("terrain-analyze-" + std::to_string(::getpid()) + ".tif");
+  const std::string scene = (kScenes / GetParam()).string();
+  ASSERT_EQ(run_cli("grid " + scene + " --size 96 -o " + tif.string()).first, 0);
+  const auto [status, text] = run_cli("analyze " + tif.string());
+  const nlohmann::json raster = nlohmann::json::parse(text);
+  const auto [scene_status, scene_text] = run_cli("analyze " + scene + " --size 96");
+  const nlohmann::json direct = nlohmann::json::parse(scene_text);
+  ASSERT_EQ(run_cli("analyze " + tif.string() + " --cell 0").first == 0, false);
+  fs::remove(tif);
+  ASSERT_EQ(status, 0);
+  ASSERT_EQ(scene_status, 0);
+  EXPECT_EQ(raster["input"]["kind"], "raster");
+  EXPECT_EQ(raster["input"]["cell_size_from"], "GeoTIFF");
+  EXPECT_DOUBLE_EQ(raster["grid"]["cell_size_m"].get<double>(),
+                   direct["grid"]["cell_size_m"].get<double>());
+  // Pits and closed depressions do not depend on the grid's orientation.
+  EXPECT_EQ(raster["pits"], direct["pits"]);
+  EXPECT_EQ(raster["closed_depressions"]["cells"], direct["closed_depressions"]["cells"]);
+}
+
+INSTANTIATE_TEST_SUITE_P(Geomorphometry, GeomorphometryGeoTiff,
+                         testing::Values("mountain-range.json", "butte.json"));
+
+TEST(Geomorphometry, TheCliRefusesBadOptions) {
+  const std::string scene = (kScenes / "hills-river.json").string();
+  for (const char* bad : {" --size 5000", " --size 1", " --size 12.5", " --area 1,2,0,3",
+                          " --channel-area -4", " --sea-level x"}) {
+    EXPECT_EQ(run_cli("analyze " + scene + bad).first == 0, false) << bad;
+  }
+  EXPECT_NE(run_cli("analyze /nonexistent/scene.json").first, 0);
+}
+
+}  // namespace
+}  // namespace terrain
