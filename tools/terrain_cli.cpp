@@ -1,10 +1,14 @@
 // terrain: command-line access to the terrain model — validate, sample, grid, render, program.
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -17,6 +21,7 @@
 #include "export_command.hpp"
 #include "gpu/backend.hpp"
 #include "terrain/evaluate.hpp"
+#include "terrain/geomorphometry.hpp"
 #include "terrain/geotiff.hpp"
 #include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
@@ -56,7 +61,12 @@ Usage:
 )";
 
 constexpr const char* kUsageEnd =
-    R"(  terrain program SCENE.json             the compiled program as JSON
+    R"(  terrain analyze SCENE.json|DEM.{tif,png} [--size N] [--area X0,Y0,X1,Y1] [--cell M]
+       [--z-scale F] [--sea-level Z] [--channel-area M2]
+                                         geomorphometry as JSON: pits, closed depressions,
+                                         Flint's law, Strahler orders, Horton ratio, drainage
+                                         density, hypsometric integral (docs/analysis.md)
+  terrain program SCENE.json             the compiled program as JSON
   terrain nodes                          every node type: summary and example (JSON)
   terrain --help
 
@@ -271,6 +281,200 @@ int cmd_render(const Args& args) {
                                                       (picture.width * picture.height)}}
                    .dump(2)
             << "\n";
+  return 0;
+}
+
+/// The pixel size of a classic little- or big-endian TIFF's first image: ModelPixelScaleTag's x
+/// scale, or the length of ModelTransformationTag's first column (a rotated plane); nothing
+/// without either (or for BigTIFF, not a TIFF, unreadable). Every read is bounds-checked.
+std::optional<double> geotiff_pixel_size(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  auto bytes_at = [&in](std::uint64_t offset, std::size_t count) -> std::optional<std::string> {
+    std::string buffer(count, '\0');
+    in.clear();
+    in.seekg(static_cast<std::streamoff>(offset));
+    if (!in.read(buffer.data(), static_cast<std::streamsize>(count))) return std::nullopt;
+    return buffer;
+  };
+  const auto header = bytes_at(0, 8);
+  if (!header || ((*header)[0] != 'I' && (*header)[0] != 'M')) return std::nullopt;
+  const bool little = (*header)[0] == 'I';
+  auto number = [little](const std::string& b, std::size_t at, std::size_t size) {
+    std::uint64_t v = 0;
+    for (std::size_t k = 0; k < size; ++k) {
+      const auto byte = static_cast<std::uint8_t>(b[at + (little ? size - 1 - k : k)]);
+      v = (v << 8) | byte;
+    }
+    return v;
+  };
+  auto doubles_at = [&](std::uint64_t offset, std::size_t count) -> std::vector<double> {
+    const auto raw = bytes_at(offset, count * 8);
+    std::vector<double> values;
+    for (std::size_t k = 0; raw && k < count; ++k) {
+      const std::uint64_t bits = number(*raw, k * 8, 8);
+      double v = 0.0;
+      std::memcpy(&v, &bits, sizeof v);
+      values.push_back(v);
+    }
+    return values;
+  };
+  if (number(*header, 2, 2) != 42) return std::nullopt;
+  const std::uint64_t ifd = number(*header, 4, 4);
+  const auto count_bytes = bytes_at(ifd, 2);
+  if (!count_bytes) return std::nullopt;
+  const std::uint64_t entries = number(*count_bytes, 0, 2);
+  const auto table = bytes_at(ifd + 2, static_cast<std::size_t>(entries) * 12);
+  if (!table) return std::nullopt;
+  std::optional<double> size;
+  for (std::size_t e = 0; e < entries; ++e) {
+    const std::size_t at = e * 12;
+    const std::uint64_t tag = number(*table, at, 2);
+    const std::uint64_t count = number(*table, at + 4, 4);
+    if (number(*table, at + 2, 2) != 12) continue;  // DOUBLEs, stored at an offset
+    const std::uint64_t offset = number(*table, at + 8, 4);
+    if (tag == 33550 && count >= 1) {  // ModelPixelScaleTag: (x, y, z)
+      const std::vector<double> scale = doubles_at(offset, 1);
+      if (!scale.empty()) size = scale[0];
+    } else if (tag == 34264 && count == 16) {  // ModelTransformationTag: a 4 × 4 matrix
+      const std::vector<double> m = doubles_at(offset, 16);
+      if (m.size() == 16) size = std::hypot(m[0], m[4]);
+    }
+  }
+  if (size && std::isfinite(*size) && *size > 0.0) return size;
+  return std::nullopt;
+}
+
+bool is_raster_path(std::string path) {
+  std::transform(path.begin(), path.end(), path.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  for (const char* ext : {".tif", ".tiff", ".png", ".exr"}) {
+    if (path.ends_with(ext)) return true;
+  }
+  return false;
+}
+
+int cmd_analyze(const Args& args) {
+  const std::string path = args.positional.at(1);
+  const auto size = tools::parse_integer(args.get("--size", "512"), 2, 4096);
+  if (!size) {
+    std::cerr << "terrain analyze: --size must be an integer from 2 to 4096\n";
+    return 2;
+  }
+  AnalysisOptions options;
+  if (args.has("--channel-area")) {
+    const auto a = parse_number(args.get("--channel-area", ""));
+    if (!a || *a <= 0) {
+      std::cerr << "terrain analyze: --channel-area must be an area in m² greater than 0\n";
+      return 2;
+    }
+    options.channel_area = *a;
+  }
+  std::optional<float> sea_level;
+  if (args.has("--sea-level")) {
+    const auto z = parse_number(args.get("--sea-level", ""));
+    if (!z) {
+      std::cerr << "terrain analyze: --sea-level must be an elevation in metres\n";
+      return 2;
+    }
+    sea_level = static_cast<float>(*z);
+  }
+  nlohmann::json input{{"path", path}};
+  std::vector<float> elevation;
+  std::vector<std::uint8_t> water;
+  int width = 0, height = 0;
+  double cell = 0.0;
+  if (is_raster_path(path)) {
+    const auto z_scale = parse_number(args.get("--z-scale", "1"));
+    if (!z_scale || *z_scale <= 0) {
+      std::cerr << "terrain analyze: --z-scale must be a number greater than 0\n";
+      return 2;
+    }
+    Result<Raster> raster = read_heightfield(path);
+    if (!raster) {
+      std::cerr << path << ": " << raster.error().message << "\n";
+      return 1;
+    }
+    width = raster->width;
+    height = raster->height;
+    elevation = std::move(raster->samples);
+    for (float& z : elevation) z = static_cast<float>(z * *z_scale);
+    const std::optional<double> pixel = geotiff_pixel_size(path);
+    if (args.has("--cell")) {
+      const auto c = parse_number(args.get("--cell", ""));
+      if (!c || *c <= 0) {
+        std::cerr << "terrain analyze: --cell must be a number of metres greater than 0\n";
+        return 2;
+      }
+      cell = *c;
+    } else if (pixel) {
+      cell = *pixel;
+    } else {
+      std::cerr << "terrain analyze: " << path
+                << " has no GeoTIFF pixel size: give the cell size with --cell M\n";
+      return 2;
+    }
+    input["kind"] = "raster";
+    input["cell_size_from"] = args.has("--cell") ? "--cell" : "GeoTIFF";
+  } else {
+    const auto loaded = load(path);
+    if (!loaded) return 1;
+    const auto& [scene, program] = *loaded;
+    Box2 area = scene.area();
+    if (args.has("--area")) {
+      const auto a = parse_area(args.get("--area", ""));
+      if (!a) {
+        std::cerr << "terrain analyze: --area must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1\n";
+        return 2;
+      }
+      area = *a;
+    }
+    // The same grid as `terrain grid` over the area: N × N samples, a square of its larger side.
+    width = height = static_cast<int>(*size);
+    const double side = std::max(area.size().x, area.size().y);
+    const GridSpec spec{area.lo.x, area.lo.y, side / (width - 1), width, height, -1.0f};
+    cell = spec.step;
+    elevation = evaluate_grid(program, spec).elevation;
+    // Water of the scene's water layer (weight ≥ 0.5, surface above the ground) is not land.
+    std::int64_t water_cells = 0;
+    if (scene.water) {
+      Result<Program> water_program = compile_water(scene);
+      if (!water_program) {
+        std::cerr << path << ": " << water_program.error().pointer << ": "
+                  << water_program.error().message << "\n";
+        return 1;
+      }
+      Evaluator e(*water_program);
+      water.assign(elevation.size(), 0);
+      for (int j = 0; j < height; ++j) {
+        for (int i = 0; i < width; ++i) {
+          const std::size_t c = static_cast<std::size_t>(j) * static_cast<std::size_t>(width) +
+                                static_cast<std::size_t>(i);
+          const Vec2 p{static_cast<float>(spec.origin_x + i * spec.step),
+                       static_cast<float>(spec.origin_y + j * spec.step)};
+          const FieldSample s = e.sample(p, static_cast<float>(spec.step));
+          if (s.weight >= 0.5f && s.elevation > elevation[c]) {
+            water[c] = 1;
+            ++water_cells;
+          }
+        }
+      }
+    }
+    input["kind"] = "scene";
+    input["scene_hash"] = scene.hash;
+    input["area"] = {spec.origin_x, spec.origin_y, spec.origin_x + side, spec.origin_y + side};
+    input["water_cells"] = water_cells;
+  }
+  ElevationGrid grid{width, height, cell, elevation, sea_level, water};
+  Result<Geomorphometry> figures = analyze(grid, options);
+  if (!figures) {
+    std::cerr << "terrain analyze: " << figures.error().pointer << ": " << figures.error().message
+              << "\n";
+    return 1;
+  }
+  nlohmann::json out = to_json(*figures);
+  out["input"] = input;
+  if (sea_level) out["input"]["sea_level_m"] = *sea_level;
+  std::cout << out.dump(2) << "\n";
   return 0;
 }
 
@@ -495,6 +699,7 @@ int main(int argc, char** argv) {
   if (command == "grid") return cmd_grid(*args);
   if (command == "render") return cmd_render(*args);
   if (command == "program") return cmd_program(*args);
+  if (command == "analyze") return cmd_analyze(*args);
   if (command == "tile") return cmd_tile(*args);
   if (command == "layer-json") return cmd_layer_json(*args);
   if (command == "export") return cmd_export(*args);
