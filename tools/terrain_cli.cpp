@@ -171,6 +171,24 @@ std::optional<Box2> parse_area(const std::string& text) {
               {static_cast<float>(v[2]), static_cast<float>(v[3])}};
 }
 
+// The grid `terrain grid` and `terrain analyze` sample: N × N points over --area (the scene's
+// area by default), a square of its larger side; nullopt, the refusal printed, for a bad --area.
+std::optional<GridSpec> square_grid(const Args& args, const Scene& scene, int n,
+                                    std::string_view command) {
+  Box2 area = scene.area();
+  if (args.has("--area")) {
+    const auto a = parse_area(args.get("--area", ""));
+    if (!a) {
+      std::cerr << "terrain " << command
+                << ": --area must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1\n";
+      return std::nullopt;
+    }
+    area = *a;
+  }
+  const double side = std::max(area.size().x, area.size().y);
+  return GridSpec{area.lo.x, area.lo.y, side / (n - 1), n, n, -1.0f};
+}
+
 int cmd_grid(const Args& args) {
   const std::string out = args.get("-o", "");
   const auto size = parse_number(args.get("--size", "512"));
@@ -181,18 +199,9 @@ int cmd_grid(const Args& args) {
   const auto loaded = load(args.positional.at(1));
   if (!loaded) return 1;
   const auto& [scene, program] = *loaded;
-  Box2 area = scene.area();
-  if (args.has("--area")) {
-    const auto a = parse_area(args.get("--area", ""));
-    if (!a) {
-      std::cerr << "terrain grid: --area must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1\n";
-      return 2;
-    }
-    area = *a;
-  }
-  const int n = static_cast<int>(*size);
-  const double side = std::max(area.size().x, area.size().y);
-  GridSpec grid{area.lo.x, area.lo.y, side / (n - 1), n, n, -1.0f};
+  std::optional<GridSpec> square = square_grid(args, scene, static_cast<int>(*size), "grid");
+  if (!square) return 2;
+  GridSpec grid = *square;
   if (args.has("--lod"))
     grid.lod_spacing = static_cast<float>(parse_number(args.get("--lod", "0")).value_or(0));
   const auto start = std::chrono::steady_clock::now();
@@ -419,19 +428,12 @@ int cmd_analyze(const Args& args) {
     const auto loaded = load(path);
     if (!loaded) return 1;
     const auto& [scene, program] = *loaded;
-    Box2 area = scene.area();
-    if (args.has("--area")) {
-      const auto a = parse_area(args.get("--area", ""));
-      if (!a) {
-        std::cerr << "terrain analyze: --area must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1\n";
-        return 2;
-      }
-      area = *a;
-    }
-    // The same grid as `terrain grid` over the area: N × N samples, a square of its larger side.
-    width = height = static_cast<int>(*size);
-    const double side = std::max(area.size().x, area.size().y);
-    const GridSpec spec{area.lo.x, area.lo.y, side / (width - 1), width, height, -1.0f};
+    // The same grid as `terrain grid`.
+    const std::optional<GridSpec> square =
+        square_grid(args, scene, static_cast<int>(*size), "analyze");
+    if (!square) return 2;
+    const GridSpec spec = *square;
+    width = height = spec.width;
     cell = spec.step;
     elevation = evaluate_grid(program, spec).elevation;
     // Water of the scene's water layer (weight ≥ 0.5, surface above the ground) is not land.

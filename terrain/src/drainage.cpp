@@ -11,10 +11,6 @@
 namespace terrain {
 namespace {
 
-/// The eight D8 neighbours in increasing linear index: rows below, the same row, rows above.
-constexpr int kDx[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
-constexpr int kDy[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
-
 /// A flood queue entry: lowest value first, then the earliest pushed (the sequence number is
 /// unique, so the order is total and does not depend on the heap's implementation).
 struct FloodEntry {
@@ -110,8 +106,8 @@ Result<Drainage> route_drainage(const ElevationGrid& grid) {
     const int ci = top.cell % w;
     const int cj = top.cell / w;
     for (int k = 0; k < 8; ++k) {
-      const int ni = ci + kDx[k];
-      const int nj = cj + kDy[k];
+      const int ni = ci + kD8Dx[k];
+      const int nj = cj + kD8Dy[k];
       if (ni < 0 || nj < 0 || ni >= w || nj >= h) continue;
       const std::size_t nc =
           static_cast<std::size_t>(nj) * static_cast<std::size_t>(w) + static_cast<std::size_t>(ni);
@@ -132,11 +128,12 @@ Result<Drainage> route_drainage(const ElevationGrid& grid) {
       double steepest = 0.0;
       std::int32_t best = -1;
       for (int k = 0; k < 8; ++k) {
-        const std::size_t nc = static_cast<std::size_t>(j + kDy[k]) * static_cast<std::size_t>(w) +
-                               static_cast<std::size_t>(i + kDx[k]);
+        const std::size_t nc =
+            static_cast<std::size_t>(j + kD8Dy[k]) * static_cast<std::size_t>(w) +
+            static_cast<std::size_t>(i + kD8Dx[k]);
         const double drop = d.filled[c] - d.filled[nc];
         if (!(drop > 0.0)) continue;
-        const double slope = (kDx[k] != 0 && kDy[k] != 0) ? drop / std::sqrt(2.0) : drop;
+        const double slope = (kD8Dx[k] != 0 && kD8Dy[k] != 0) ? drop / std::sqrt(2.0) : drop;
         if (best < 0 || slope > steepest) {
           steepest = slope;
           best = static_cast<std::int32_t>(nc);

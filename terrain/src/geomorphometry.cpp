@@ -9,9 +9,6 @@
 namespace terrain {
 namespace {
 
-constexpr int kDx[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
-constexpr int kDy[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
-
 /// Least-squares line y = a + b·x; none with fewer than `min_points` points or no spread in x.
 struct Line {
   double intercept = 0.0;
@@ -106,8 +103,9 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
       if (i == 0 || j == 0 || i == w - 1 || j == h - 1) continue;  // edge cells are outlets
       bool lower = false;
       for (int k = 0; k < 8 && !lower; ++k) {
-        const std::size_t nc = static_cast<std::size_t>(j + kDy[k]) * static_cast<std::size_t>(w) +
-                               static_cast<std::size_t>(i + kDx[k]);
+        const std::size_t nc =
+            static_cast<std::size_t>(j + kD8Dy[k]) * static_cast<std::size_t>(w) +
+            static_cast<std::size_t>(i + kD8Dx[k]);
         lower = d.land[nc] == 0 || raw[nc] < raw[c];
       }
       if (!lower) ++g.pits;

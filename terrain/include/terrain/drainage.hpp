@@ -28,6 +28,11 @@ struct ElevationGrid {
   std::span<const std::uint8_t> water = {};
 };
 
+/// The eight D8 neighbours' offsets in increasing linear index: the row below, the same row,
+/// the row above (the order every tie-break follows).
+inline constexpr int kD8Dx[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
+inline constexpr int kD8Dy[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
+
 /// The largest grid analysed: each side at most 8192 cells, at most 16 Mi cells in all.
 inline constexpr int kMaxGridSide = 8192;
 inline constexpr std::int64_t kMaxGridCells = std::int64_t{1} << 24;
