@@ -202,6 +202,7 @@ int cmd_grid(const Args& args) {
   std::optional<GridSpec> square = square_grid(args, scene, static_cast<int>(*size), "grid");
   if (!square) return 2;
   GridSpec grid = *square;
+  const int n = grid.width;
   if (args.has("--lod"))
     grid.lod_spacing = static_cast<float>(parse_number(args.get("--lod", "0")).value_or(0));
   const auto start = std::chrono::steady_clock::now();
@@ -463,6 +464,7 @@ int cmd_analyze(const Args& args) {
     }
     input["kind"] = "scene";
     input["scene_hash"] = scene.hash;
+    const double side = spec.step * (spec.width - 1);
     input["area"] = {spec.origin_x, spec.origin_y, spec.origin_x + side, spec.origin_y + side};
     input["water_cells"] = water_cells;
   }

@@ -230,6 +230,80 @@ def mesa_image():
             {"type": "replace", "weight": "keep", "children": [desert, butte]}, ripples]}})
 
 
+def write_eroded(name, scene):
+    """Scenes built on the erosion operator: config/scenes/eroded/ (docs/erosion.md)."""
+    scene = {"format": "terrain-scene/1", **scene}
+    (HERE / "eroded").mkdir(exist_ok=True)
+    (HERE / "eroded" / f"{name}.json").write_text(json.dumps(scene, indent=1) + "\n")
+
+
+def erosion(children, size, **params):
+    return {"type": "erosion", "resolution": 512, "center": [0, 0], "size": size, **params,
+            "children": [{"type": "blend", "children": children}]}
+
+
+def alpine_valleys():
+    """An alpine range of ridged peaks along a winding crest, its valleys cut by rivers."""
+    rng = random.Random(41)
+    peaks = []
+    for i in range(9):
+        t = i / 8
+        x, y = -3000 + 6000 * t, 700 * math.sin(2.5 * t) + rng.uniform(-300, 300)
+        peaks.append({"type": "disc", "center": [r1(x), r1(y)], "radius": r1(rng.uniform(1600, 2300)),
+                      "elevation": r1(rng.uniform(1300, 1900)),
+                      "noise": {"kind": "ridged", "amplitude": 600, "wavelength": 1500, "octaves": 6,
+                                "seed": 40 + i}})
+    plain = {"type": "disc", "center": [0, 0], "radius": 7000, "elevation": 400,
+             "noise": {"kind": "fbm", "amplitude": 80, "wavelength": 2000, "octaves": 5, "seed": 4}}
+    write_eroded("alpine-valleys", {
+        "name": "An alpine range with dendritic valleys (erosion)", "seed": 41,
+        "extent": {"min": [-4000, -4000], "max": [4000, 4000]},
+        "georeference": {"latitude": 46.45, "longitude": 8.05, "heading": 0},
+        "root": erosion([plain] + peaks, 8000, uplift=0.8, concavity=0.45)})
+
+
+def river_basin():
+    """A basin rimmed by hills on three sides, open to the south: one trunk river and its
+    tributaries."""
+    rng = random.Random(42)
+    rim = []
+    for i in range(14):
+        a = math.pi * (-0.15 + 1.3 * i / 13)  # from south-east round the north to south-west
+        x, y = 3300 * math.cos(a), 3300 * math.sin(a) + 500
+        rim.append({"type": "disc", "center": [r1(x), r1(y)], "radius": r1(rng.uniform(1300, 1800)),
+                    "elevation": r1(rng.uniform(700, 1000)),
+                    "noise": {"kind": "fbm", "amplitude": 250, "wavelength": 1200, "octaves": 6,
+                              "seed": 60 + i}})
+    floor = {"type": "disc", "center": [0, 0], "radius": 7000, "elevation": 150,
+             "noise": {"kind": "fbm", "amplitude": 90, "wavelength": 1600, "octaves": 6, "seed": 5}}
+    write_eroded("river-basin", {
+        "name": "A river basin with tributaries (erosion)", "seed": 42,
+        "extent": {"min": [-4000, -4000], "max": [4000, 4000]},
+        "georeference": {"latitude": 44.2, "longitude": 4.6, "heading": 0},
+        "root": erosion([floor] + rim, 8000, uplift=0.5, concavity=0.5)})
+
+
+def coastal_range():
+    """A coastal range: ridged hills rising from the sea, drained by short steep rivers."""
+    rng = random.Random(43)
+    hills = []
+    for i in range(8):
+        x = -3200 + 6400 * i / 7 + rng.uniform(-200, 200)
+        hills.append({"type": "disc", "center": [r1(x), r1(rng.uniform(900, 1900))],
+                      "radius": r1(rng.uniform(1400, 2000)), "elevation": r1(rng.uniform(700, 1100)),
+                      "noise": {"kind": "ridged", "amplitude": 450, "wavelength": 1100, "octaves": 6,
+                                "seed": 80 + i}})
+    shelf = {"type": "disc", "center": [0, -5200], "radius": 5600, "elevation": -120,
+             "noise": {"kind": "fbm", "amplitude": 40, "wavelength": 1500, "octaves": 4, "seed": 6}}
+    land = {"type": "disc", "center": [0, 2600], "radius": 6000, "elevation": 120,
+            "noise": {"kind": "fbm", "amplitude": 60, "wavelength": 1800, "octaves": 5, "seed": 7}}
+    write_eroded("coastal-range", {
+        "name": "A coastal range rising from the sea (erosion)", "seed": 43,
+        "extent": {"min": [-4000, -4000], "max": [4000, 4000]},
+        "georeference": {"latitude": 40.6, "longitude": 14.6, "heading": 0},
+        "root": erosion([shelf, land] + hills, 8000, uplift=0.7, concavity=0.45, sea_level=0)})
+
+
 if __name__ == "__main__":
     hills_river()
     craters()
@@ -237,3 +311,6 @@ if __name__ == "__main__":
     lake_dunes()
     mountain_range()
     mesa_image()
+    alpine_valleys()
+    river_basin()
+    coastal_range()

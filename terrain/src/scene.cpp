@@ -182,7 +182,9 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
   reader.skip("type");
   reader.skip("id");
   reader.skip("children");
+  context_.children = node->children;
   Result<NodeParams> params = type->parse(reader, context_);
+  context_.children = {};
   if (!params) return params.error();
   reader.reject_unknown();
   if (!reader.ok()) return reader.error();

@@ -6,6 +6,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -31,6 +32,12 @@ struct SceneLimits {
   std::size_t max_pool_floats = 64 * 1024 * 1024;
   /// The name is a label that every version listing repeats: bounded so a listing stays small.
   std::size_t max_name_bytes = 256;
+  /// Erosion nodes: the largest grid side, and the work of every erosion of the scene together
+  /// (terrain::erosion_work's cell-steps, and grid cells × nodes of the eroded subtree) — what a
+  /// parse may cost before it is refused.
+  int max_erosion_side = 2048;
+  std::int64_t max_erosion_work = std::int64_t{1} << 24;
+  std::int64_t max_erosion_evaluations = std::int64_t{1} << 30;
 };
 
 /// A number a node parser checked, with the range it was checked against (inclusive unless
@@ -98,6 +105,12 @@ std::string sha256_hex(std::string_view bytes);
 struct ParseContext {
   std::uint32_t scene_seed = 0;
   float base_elevation = 0.0f;
+  /// The children of the node being parsed (already parsed): nodes that bake their subtree into
+  /// their own parameters (erosion) read them.
+  std::span<const NodePtr> children;
+  /// Erosion work spent by the nodes parsed so far (checked against SceneLimits).
+  std::int64_t erosion_work = 0;
+  std::int64_t erosion_evaluations = 0;
   const ParseOptions* options = nullptr;
   /// Derives a node's noise seed from the scene seed and the node's own "seed" field.
   std::uint32_t noise_seed(std::int64_t node_seed) const;

@@ -19,6 +19,24 @@ namespace {
 constexpr int kLipschitz = 0, kWeightLipschitz = 1, kLo = 2, kHi = 3, kBox = 4, kMapping = 8,
               kField = 9, kMode = 10, kWidth = 11, kLength = 12;
 
+// The fixed part of the pool; the mapping and heightfield record offsets are filled in after.
+std::vector<float> pack_header(const Heightfield& field, float stretch, const Box2& box, float mode,
+                               float width, float length) {
+  return {field.lipschitz() * stretch,
+          field.weight_lipschitz() * stretch,
+          field.height_range().lo,
+          field.height_range().hi,
+          box.lo.x,
+          box.lo.y,
+          box.hi.x,
+          box.hi.y,
+          0.0f,
+          0.0f,
+          mode,
+          width,
+          length};
+}
+
 // The quadrangle mapping: corners north-west, north-east, south-east, south-west of the image.
 Result<QuadMap> read_corners(FieldReader& reader) {
   std::array<Vec2, 4> corners{};
@@ -89,37 +107,19 @@ Result<NodeParams> parse_image(FieldReader& reader, ParseContext& context) {
 
   // |∇h| = |h_u ∇u + h_v ∇v|: through the quad's inverse Jacobian, or along the curve where
   // |∇u| ≤ 1/length (∇s is a unit tangent or 0) and |∇v| = 1/width.
-  float stretch = 0.0f;
-  Box2 box;
-  if (quad) {
-    stretch = quad->inverse_jacobian_bound();
-    box = quad->bounds();
-  } else {
-    stretch = std::sqrt(1.0f / (skeleton->length() * skeleton->length()) + 1.0f / (width * width));
-    box = skeleton->bounds().expanded(0.5f * width);
-  }
   NodeParams out;
-  out.pool = {field->lipschitz() * stretch,
-              field->weight_lipschitz() * stretch,
-              field->height_range().lo,
-              field->height_range().hi,
-              box.lo.x,
-              box.lo.y,
-              box.hi.x,
-              box.hi.y,
-              0.0f,
-              0.0f,
-              quad ? 0.0f : 1.0f,
-              width,
-              skeleton ? skeleton->length() : 0.0f};
-  out.pool[kMapping] = static_cast<float>(out.pool.size());
   if (quad) {
-    quad->pack(out.pool);
+    out.pool = pack_image_on_quad(*field, *quad);
   } else {
+    const float stretch =
+        std::sqrt(1.0f / (skeleton->length() * skeleton->length()) + 1.0f / (width * width));
+    out.pool = pack_header(*field, stretch, skeleton->bounds().expanded(0.5f * width), 1.0f, width,
+                           skeleton->length());
+    out.pool[kMapping] = static_cast<float>(out.pool.size());
     skeleton->pack(out.pool);
+    out.pool[kField] = static_cast<float>(out.pool.size());
+    field->pack(out.pool);
   }
-  out.pool[kField] = static_cast<float>(out.pool.size());
-  field->pack(out.pool);
   out.canonical = reader.canonical();
   return out;
 }
@@ -162,6 +162,16 @@ NodeBounds image_bounds(const float* params, const BoundsQuery& query) {
 }
 
 }  // namespace
+
+std::vector<float> pack_image_on_quad(const Heightfield& field, const QuadMap& quad) {
+  std::vector<float> pool =
+      pack_header(field, quad.inverse_jacobian_bound(), quad.bounds(), 0.0f, 0.0f, 0.0f);
+  pool[kMapping] = static_cast<float>(pool.size());
+  quad.pack(pool);
+  pool[kField] = static_cast<float>(pool.size());
+  field.pack(pool);
+  return pool;
+}
 
 namespace {
 // The mapping's few fixed steps, and for a curve mapping its polyline's chunks and segments (a

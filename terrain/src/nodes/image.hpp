@@ -5,6 +5,14 @@
 
 #include "terrain/node.hpp"
 
+#include <vector>
+
+#include "terrain/heightfield.hpp"
+
 namespace terrain {
 const NodeType& image_node_type();
-}
+
+/// The parameters of an image primitive showing `field` on `quad`: nodes that make their own
+/// heightfield (erosion) pack it so, and evaluate with the image's kernels and shader call.
+std::vector<float> pack_image_on_quad(const Heightfield& field, const QuadMap& quad);
+}  // namespace terrain

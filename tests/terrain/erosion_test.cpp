@@ -1,0 +1,268 @@
+// The erosion solver (terrain/erosion.hpp) and the erosion node: results that drain, follow
+// Flint's law with θ ≈ m/n, come out the same bits every time, and refused parameters that name
+// their field.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "terrain/erosion.hpp"
+#include "terrain/evaluate.hpp"
+#include "terrain/geomorphometry.hpp"
+#include "terrain/scene.hpp"
+
+namespace terrain {
+namespace {
+
+/// Deterministic value noise: a hash per lattice point, smoothstep between.
+double lattice(int i, int j, int seed) {
+  std::uint32_t x = static_cast<std::uint32_t>(i) * 73856093u ^
+                    static_cast<std::uint32_t>(j) * 19349663u ^
+                    static_cast<std::uint32_t>(seed) * 83492791u;
+  x ^= x >> 13;
+  x *= 0x5bd1e995u;
+  x ^= x >> 15;
+  return static_cast<double>(x & 0xffffffu) / 16777215.0;
+}
+
+double value_noise(double x, double y, int seed) {
+  const double fi = std::floor(x), fj = std::floor(y);
+  const int i = static_cast<int>(fi), j = static_cast<int>(fj);
+  double fx = x - fi, fy = y - fj;
+  fx = fx * fx * (3 - 2 * fx);
+  fy = fy * fy * (3 - 2 * fy);
+  const double a = lattice(i, j, seed), b = lattice(i + 1, j, seed);
+  const double c = lattice(i, j + 1, seed), d = lattice(i + 1, j + 1, seed);
+  return (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy;
+}
+
+/// Rough land: eight octaves of value noise, about 1.4 km of relief over a 4 km square.
+std::vector<float> rough_land(int side) {
+  std::vector<float> z(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
+  const double cell = 4000.0 / (side - 1);
+  for (int j = 0; j < side; ++j) {
+    for (int i = 0; i < side; ++i) {
+      double e = 0.0, amplitude = 1.0, frequency = 1.0 / 1500.0;
+      for (int o = 0; o < 8; ++o) {
+        e += amplitude * value_noise(i * cell * frequency, j * cell * frequency, o);
+        amplitude *= 0.5;
+        frequency *= 2.0;
+      }
+      z[static_cast<std::size_t>(j) * static_cast<std::size_t>(side) +
+        static_cast<std::size_t>(i)] = static_cast<float>(100.0 + 1050.0 * e);
+    }
+  }
+  return z;
+}
+
+ElevationGrid grid_of(const std::vector<float>& z, int side) {
+  return {side, side, 4000.0 / (side - 1), z, std::nullopt, {}};
+}
+
+std::vector<float> erode_or_die(const ElevationGrid& grid, const ErosionParams& params = {}) {
+  Result<std::vector<float>> out = erode(grid, params);
+  EXPECT_TRUE(out.ok()) << (out ? "" : out.error().pointer + ": " + out.error().message);
+  return out ? *out : std::vector<float>{};
+}
+
+TEST(Erosion, LeavesNoPitsAndNoClosedDepressions) {
+  const int side = 128;
+  const std::vector<float> before = rough_land(side);
+  const Geomorphometry raw = *analyze(grid_of(before, side));
+  ASSERT_GT(raw.pits, 0) << "the input should have pits for this test to mean anything";
+  const std::vector<float> after = erode_or_die(grid_of(before, side));
+  const Geomorphometry g = *analyze(grid_of(after, side));
+  EXPECT_EQ(g.pits, 0);
+  EXPECT_EQ(g.depression_cells, 0);
+}
+
+TEST(Erosion, ChannelsFollowFlintsLawWithTheConcavityAsked) {
+  const int side = 256;
+  const std::vector<float> before = rough_land(side);
+  for (const double concavity : {0.4, 0.55}) {
+    ErosionParams params;
+    params.concavity = concavity;
+    params.uplift = 0.3;
+    const std::vector<float> after = erode_or_die(grid_of(before, side), params);
+    const Geomorphometry g = *analyze(grid_of(after, side));
+    ASSERT_TRUE(g.flint.has_value());
+    EXPECT_NEAR(g.flint->theta, concavity, 0.08) << "m/n = " << concavity;
+    EXPECT_GT(g.flint->r_squared, 0.6);
+  }
+}
+
+TEST(Erosion, KeepsTheAuthoredReliefAndOutlets) {
+  const int side = 96;
+  const std::vector<float> before = rough_land(side);
+  ErosionParams params;
+  params.talus_angle = 85.0;  // a talus slope shaves one-cell summits: not what is tested here
+  const std::vector<float> after = erode_or_die(grid_of(before, side), params);
+  float lo = before[0], hi = before[0], out_hi = after[0];
+  for (std::size_t c = 0; c < before.size(); ++c) {
+    lo = std::min(lo, before[c]);
+    hi = std::max(hi, before[c]);
+    out_hi = std::max(out_hi, after[c]);
+  }
+  EXPECT_NEAR(out_hi, hi, 0.02 * (hi - lo));
+  for (int i = 0; i < side; ++i) {  // the south and north edges are outlets: unchanged
+    EXPECT_EQ(after[static_cast<std::size_t>(i)], before[static_cast<std::size_t>(i)]);
+    const std::size_t top = static_cast<std::size_t>(side - 1) * side + static_cast<std::size_t>(i);
+    EXPECT_EQ(after[top], before[top]);
+  }
+}
+
+TEST(Erosion, SeaCellsStayAndDrainTheLand) {
+  const int side = 96;
+  std::vector<float> z = rough_land(side);
+  ErosionParams params;
+  params.sea_level = 450.0;
+  const std::vector<float> after = erode_or_die(grid_of(z, side), params);
+  ElevationGrid eroded = grid_of(after, side);
+  eroded.sea_level = static_cast<float>(*params.sea_level);
+  const Geomorphometry g = *analyze(eroded);
+  EXPECT_EQ(g.pits, 0);
+  for (std::size_t c = 0; c < z.size(); ++c) {
+    if (z[c] <= 450.0f) {
+      EXPECT_EQ(after[c], z[c]) << c;
+    }
+  }
+}
+
+TEST(Erosion, IsTheSameBitsEveryTimeAndOnEveryThread) {
+  const int side = 128;
+  const std::vector<float> before = rough_land(side);
+  const std::vector<float> first = erode_or_die(grid_of(before, side));
+  std::vector<float> second, on_thread;
+  second = erode_or_die(grid_of(before, side));
+  std::thread([&] { on_thread = erode_or_die(grid_of(before, side)); }).join();
+  ASSERT_EQ(first.size(), second.size());
+  EXPECT_EQ(0, std::memcmp(first.data(), second.data(), first.size() * sizeof(float)));
+  EXPECT_EQ(0, std::memcmp(first.data(), on_thread.data(), first.size() * sizeof(float)));
+}
+
+TEST(Erosion, LevelsHalveTheGridAndSpendTheStepsWhereCellsAreFew) {
+  const std::vector<ErosionLevel> levels = erosion_levels(1024, 1024, 24);
+  ASSERT_EQ(levels.size(), 4u);
+  EXPECT_EQ(levels[0].width, 1024);
+  EXPECT_EQ(levels[3].width, 128);
+  EXPECT_EQ(levels[3].steps, 24);
+  EXPECT_EQ(levels[0].steps, 2);
+  EXPECT_EQ(erosion_levels(40, 40, 5).size(), 1u);
+  EXPECT_EQ(erosion_work(40, 40, 5), 40 * 40 * 5);
+}
+
+TEST(Erosion, PortablePowAgreesWithLibm) {
+  for (const double x : {1e-9, 0.003, 0.5, 1.0, 2.0, 1234.5, 4e6}) {
+    for (const double y : {0.1, 0.45, 1.0, 2.5}) {
+      EXPECT_NEAR(portable_pow(x, y), std::pow(x, y), 1e-13 * std::pow(x, y)) << x << "^" << y;
+    }
+  }
+}
+
+// Malformed input, together.
+
+TEST(ErosionRefuses, ParametersOutOfRangeNamingTheField) {
+  const std::vector<float> z = rough_land(32);
+  const ElevationGrid grid = grid_of(z, 32);
+  const auto refused = [&](ErosionParams p) {
+    Result<std::vector<float>> out = erode(grid, p);
+    return out ? std::string("accepted") : out.error().pointer;
+  };
+  ErosionParams p;
+  p.iterations = 0;
+  EXPECT_EQ(refused(p), "/iterations");
+  p = {};
+  p.strength = -1.0;
+  EXPECT_EQ(refused(p), "/strength");
+  p = {};
+  p.concavity = 1.5;
+  EXPECT_EQ(refused(p), "/concavity");
+  p = {};
+  p.uplift = std::nan("");
+  EXPECT_EQ(refused(p), "/uplift");
+  p = {};
+  p.diffusion = 0.3;
+  EXPECT_EQ(refused(p), "/diffusion");
+  p = {};
+  p.talus_angle = 90.0;
+  EXPECT_EQ(refused(p), "/talus_angle");
+  p = {};
+  p.sea_level = INFINITY;
+  EXPECT_EQ(refused(p), "/sea_level");
+}
+
+TEST(ErosionRefuses, GridsTooSmallTooLargeOrNotFinite) {
+  std::vector<float> z(8 * 8, 1.0f);
+  EXPECT_EQ(erode({8, 8, 1.0, z, std::nullopt, {}}, {}).error().pointer, "/width");
+  std::vector<float> big(16 * 16, 1.0f);
+  EXPECT_EQ(erode({16, 16, 0.0, big, std::nullopt, {}}, {}).error().pointer, "/cell_size");
+  big[37] = NAN;
+  EXPECT_EQ(erode({16, 16, 1.0, big, std::nullopt, {}}, {}).error().pointer, "/elevation");
+  EXPECT_EQ(erode({4096, 16, 1.0, big, std::nullopt, {}}, {}).error().pointer, "/width");
+}
+
+// The node.
+
+constexpr const char* kErodedScene = R"({"format": "terrain-scene/1", "seed": 5,
+  "extent": {"min": [-1000, -1000], "max": [1000, 1000]},
+  "root": {"type": "erosion", "id": "eroded", "resolution": 128, "center": [0, 0], "size": 2000,
+    "children": [{"type": "disc", "center": [0, 0], "radius": 1400, "elevation": 400,
+      "noise": {"kind": "ridged", "amplitude": 500, "wavelength": 900, "octaves": 6}}]}})";
+
+TEST(ErosionNode, ServesAGridThatDrainsAtItsOwnSamples) {
+  Result<Scene> scene = parse_scene_text(kErodedScene);
+  ASSERT_TRUE(scene.ok()) << scene.error().pointer << ": " << scene.error().message;
+  Result<Program> program = compile(*scene);
+  ASSERT_TRUE(program.ok());
+  // The node's grid: 128 samples over the 2 km square; sample the program there.
+  GridSpec spec{-1000.0, -1000.0, 2000.0 / 127, 128, 128, -1.0f};
+  const GridResult grid = evaluate_grid(*program, spec, 1);
+  const Geomorphometry g = *analyze({128, 128, spec.step, grid.elevation, std::nullopt, {}});
+  EXPECT_EQ(g.pits, 0);
+  EXPECT_EQ(g.depression_cells, 0);
+}
+
+TEST(ErosionNode, CanonicalFormListsEveryParameter) {
+  Result<Scene> scene = parse_scene_text(kErodedScene);
+  ASSERT_TRUE(scene.ok());
+  const nlohmann::json& root = scene->canonical["root"];
+  for (const char* key : {"resolution", "iterations", "strength", "concavity", "uplift",
+                          "diffusion", "talus_angle", "margin", "center", "size"}) {
+    EXPECT_TRUE(root.contains(key)) << key;
+  }
+}
+
+TEST(ErosionNodeRefuses, WorkBeyondTheLimitAsUnsupportedNamingTheResolution) {
+  ParseOptions options;
+  options.limits.max_erosion_work = 100000;
+  Result<Scene> scene = parse_scene_text(kErodedScene, options);
+  ASSERT_FALSE(scene.ok());
+  EXPECT_EQ(scene.error().pointer, "/root/resolution");
+  EXPECT_EQ(scene.error().kind, ErrorKind::unsupported);
+}
+
+TEST(ErosionNodeRefuses, ResolutionAndIterationsOutOfRange) {
+  for (const auto& [field, value] :
+       std::vector<std::pair<std::string, std::string>>{{"resolution", "8"},
+                                                        {"resolution", "4096"},
+                                                        {"iterations", "0"},
+                                                        {"strength", "-2"},
+                                                        {"concavity", "3"},
+                                                        {"talus_angle", "95"},
+                                                        {"uplift", "2"}}) {
+    std::string text = R"({"format": "terrain-scene/1", "root": {"type": "erosion", ")" + field +
+                       R"(": )" + value +
+                       R"(, "children": [{"type": "disc", "center": [0, 0], "radius": 100}]}})";
+    Result<Scene> scene = parse_scene_text(text);
+    ASSERT_FALSE(scene.ok()) << field << " = " << value;
+    EXPECT_EQ(scene.error().pointer, "/root/" + field);
+  }
+}
+
+}  // namespace
+}  // namespace terrain
