@@ -27,6 +27,7 @@
 #include "terrain/image_io.hpp"
 #include "terrain/program.hpp"
 #include "terrain/scene.hpp"
+#include "terrain/scene_analysis.hpp"
 #include "terrain/sphere_trace.hpp"
 #include "terrain/tile_products.hpp"
 
@@ -429,44 +430,26 @@ int cmd_analyze(const Args& args) {
     const auto loaded = load(path);
     if (!loaded) return 1;
     const auto& [scene, program] = *loaded;
-    // The same grid as `terrain grid`.
-    const std::optional<GridSpec> square =
-        square_grid(args, scene, static_cast<int>(*size), "analyze");
-    if (!square) return 2;
-    const GridSpec spec = *square;
-    width = height = spec.width;
-    cell = spec.step;
-    elevation = evaluate_grid(program, spec).elevation;
-    // Water of the scene's water layer (weight ≥ 0.5, surface above the ground) is not land.
-    std::int64_t water_cells = 0;
-    if (scene.water) {
-      Result<Program> water_program = compile_water(scene);
-      if (!water_program) {
-        std::cerr << path << ": " << water_program.error().pointer << ": "
-                  << water_program.error().message << "\n";
-        return 1;
-      }
-      Evaluator e(*water_program);
-      water.assign(elevation.size(), 0);
-      for (int j = 0; j < height; ++j) {
-        for (int i = 0; i < width; ++i) {
-          const std::size_t c = static_cast<std::size_t>(j) * static_cast<std::size_t>(width) +
-                                static_cast<std::size_t>(i);
-          const Vec2 p{static_cast<float>(spec.origin_x + i * spec.step),
-                       static_cast<float>(spec.origin_y + j * spec.step)};
-          const FieldSample s = e.sample(p, static_cast<float>(spec.step));
-          if (s.weight >= 0.5f && s.elevation > elevation[c]) {
-            water[c] = 1;
-            ++water_cells;
-          }
-        }
+    SceneAnalysisOptions scene_options;
+    scene_options.size = static_cast<int>(*size);
+    scene_options.sea_level = sea_level;
+    scene_options.analysis = options;
+    if (args.has("--area")) {
+      scene_options.area = parse_area(args.get("--area", ""));
+      if (!scene_options.area) {
+        std::cerr << "terrain analyze: --area must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1\n";
+        return 2;
       }
     }
-    input["kind"] = "scene";
-    input["scene_hash"] = scene.hash;
-    const double side = spec.step * (spec.width - 1);
-    input["area"] = {spec.origin_x, spec.origin_y, spec.origin_x + side, spec.origin_y + side};
-    input["water_cells"] = water_cells;
+    Result<nlohmann::json> analysis = analyze_scene(scene, program, scene_options);
+    if (!analysis) {
+      std::cerr << "terrain analyze: " << path << ": " << analysis.error().pointer << ": "
+                << analysis.error().message << "\n";
+      return 1;
+    }
+    (*analysis)["input"]["path"] = path;
+    std::cout << analysis->dump(2) << "\n";
+    return 0;
   }
   ElevationGrid grid{width, height, cell, elevation, sea_level, water};
   Result<Geomorphometry> figures = analyze(grid, options);

@@ -230,36 +230,33 @@ def mesa_image():
             {"type": "replace", "weight": "keep", "children": [desert, butte]}, ripples]}})
 
 
-def write_eroded(name, scene):
-    """Scenes built on the erosion operator: config/scenes/eroded/ (docs/erosion.md)."""
-    scene = {"format": "terrain-scene/1", **scene}
-    (HERE / "eroded").mkdir(exist_ok=True)
-    (HERE / "eroded" / f"{name}.json").write_text(json.dumps(scene, indent=1) + "\n")
-
-
 def erosion(children, size, **params):
-    return {"type": "erosion", "resolution": 512, "center": [0, 0], "size": size, **params,
+    return {"type": "erosion", "resolution": 512, "center": [0, 0], "size": size, "diffusion": 0.2,
+            "talus_angle": 65, **params,
             "children": [{"type": "blend", "children": children}]}
 
 
 def alpine_valleys():
-    """An alpine range of ridged peaks along a winding crest, its valleys cut by rivers."""
+    """An alpine valley between two ridged ranges that fall to the east, their flanks dissected
+    by dendritic valleys."""
     rng = random.Random(41)
     peaks = []
-    for i in range(9):
-        t = i / 8
-        x, y = -3000 + 6000 * t, 700 * math.sin(2.5 * t) + rng.uniform(-300, 300)
-        peaks.append({"type": "disc", "center": [r1(x), r1(y)], "radius": r1(rng.uniform(1600, 2300)),
-                      "elevation": r1(rng.uniform(1300, 1900)),
-                      "noise": {"kind": "ridged", "amplitude": 600, "wavelength": 1500, "octaves": 6,
-                                "seed": 40 + i}})
+    for side in (-1, 1):
+        for i in range(7):
+            t = i / 6
+            x = -2800 + 5600 * t
+            y = side * 1500 + 250 * math.sin(3 * t + side) + rng.uniform(-200, 200)
+            peaks.append({"type": "disc", "center": [r1(x), r1(y)], "radius": r1(rng.uniform(1100, 1500)),
+                          "elevation": r1(rng.uniform(1300, 1900) - 300 * t),
+                          "noise": {"kind": "ridged", "amplitude": 600, "wavelength": 1500, "octaves": 6,
+                                    "seed": 40 + i + (side + 1) * 10}})
     plain = {"type": "disc", "center": [0, 0], "radius": 7000, "elevation": 400,
              "noise": {"kind": "fbm", "amplitude": 80, "wavelength": 2000, "octaves": 5, "seed": 4}}
-    write_eroded("alpine-valleys", {
-        "name": "An alpine range with dendritic valleys (erosion)", "seed": 41,
-        "extent": {"min": [-4000, -4000], "max": [4000, 4000]},
+    write("alpine-valleys", {
+        "name": "An alpine valley between two ranges dissected by rivers (erosion)", "seed": 41,
+        "extent": {"min": [-4500, -4500], "max": [4500, 4500]},
         "georeference": {"latitude": 46.45, "longitude": 8.05, "heading": 0},
-        "root": erosion([plain] + peaks, 8000, uplift=0.8, concavity=0.45)})
+        "root": erosion([plain] + peaks, 9000, uplift=0.5, strength=0.3, concavity=0.45)})
 
 
 def river_basin():
@@ -276,11 +273,11 @@ def river_basin():
                               "seed": 60 + i}})
     floor = {"type": "disc", "center": [0, 0], "radius": 7000, "elevation": 150,
              "noise": {"kind": "fbm", "amplitude": 90, "wavelength": 1600, "octaves": 6, "seed": 5}}
-    write_eroded("river-basin", {
+    write("river-basin", {
         "name": "A river basin with tributaries (erosion)", "seed": 42,
         "extent": {"min": [-4000, -4000], "max": [4000, 4000]},
         "georeference": {"latitude": 44.2, "longitude": 4.6, "heading": 0},
-        "root": erosion([floor] + rim, 8000, uplift=0.5, concavity=0.5)})
+        "root": erosion([floor] + rim, 8000, uplift=0.6, strength=0.3, concavity=0.5)})
 
 
 def coastal_range():
@@ -297,11 +294,11 @@ def coastal_range():
              "noise": {"kind": "fbm", "amplitude": 40, "wavelength": 1500, "octaves": 4, "seed": 6}}
     land = {"type": "disc", "center": [0, 2600], "radius": 6000, "elevation": 120,
             "noise": {"kind": "fbm", "amplitude": 60, "wavelength": 1800, "octaves": 5, "seed": 7}}
-    write_eroded("coastal-range", {
+    write("coastal-range", {
         "name": "A coastal range rising from the sea (erosion)", "seed": 43,
         "extent": {"min": [-4000, -4000], "max": [4000, 4000]},
         "georeference": {"latitude": 40.6, "longitude": 14.6, "heading": 0},
-        "root": erosion([shelf, land] + hills, 8000, uplift=0.7, concavity=0.45, sea_level=0)})
+        "root": erosion([shelf, land] + hills, 8000, uplift=0.4, strength=0.5, concavity=0.45, sea_level=0)})
 
 
 if __name__ == "__main__":

@@ -409,6 +409,66 @@ UvSample hf_bilinear(uint grid, int n, int m, float u, float v) {
   return s;
 }
 
+// Catmull-Rom weights (w) and their derivatives (d) of the four samples around t in [0, 1]
+// (heightfield.cpp cubic_weights).
+void hf_cubic_weights(float t, out vec4 w, out vec4 d) {
+  TERRAIN_PRECISE float t2 = t * t;
+  TERRAIN_PRECISE float t3 = t2 * t;
+  TERRAIN_PRECISE float w0 = (2.0 * t2 - t3 - t) * 0.5;
+  TERRAIN_PRECISE float w1 = (3.0 * t3 - 5.0 * t2 + 2.0) * 0.5;
+  TERRAIN_PRECISE float w2 = (4.0 * t2 - 3.0 * t3 + t) * 0.5;
+  TERRAIN_PRECISE float w3 = (t3 - t2) * 0.5;
+  TERRAIN_PRECISE float d0 = (4.0 * t - 3.0 * t2 - 1.0) * 0.5;
+  TERRAIN_PRECISE float d1 = (9.0 * t2 - 10.0 * t) * 0.5;
+  TERRAIN_PRECISE float d2 = (8.0 * t - 9.0 * t2 + 1.0) * 0.5;
+  TERRAIN_PRECISE float d3 = (3.0 * t2 - 2.0 * t) * 0.5;
+  w = vec4(w0, w1, w2, w3);
+  d = vec4(d0, d1, d2, d3);
+}
+
+// Catmull-Rom bicubic (heightfield.cpp bicubic), indices clamped to the grid.
+UvSample hf_bicubic(uint grid, int n, int m, float u, float v) {
+  TERRAIN_PRECISE float x = hf_clamp01(u) * float(n - 1);
+  TERRAIN_PRECISE float y = hf_clamp01(v) * float(m - 1);
+  int i = min(int(x), n - 2);
+  int j = min(int(y), m - 2);
+  TERRAIN_PRECISE float fx = x - float(i);
+  TERRAIN_PRECISE float fy = y - float(j);
+  vec4 wx;
+  vec4 dx;
+  vec4 wy;
+  vec4 dy;
+  hf_cubic_weights(fx, wx, dx);
+  hf_cubic_weights(fy, wy, dy);
+  TERRAIN_PRECISE float value = 0.0;
+  TERRAIN_PRECISE float along_u = 0.0;
+  TERRAIN_PRECISE float along_v = 0.0;
+  for (int r = 0; r < 4; ++r) {
+    int row = clamp(j - 1 + r, 0, m - 1);
+    uint at = grid + uint(row) * uint(n);
+    TERRAIN_PRECISE float row_value = 0.0;
+    TERRAIN_PRECISE float row_slope = 0.0;
+    for (int c = 0; c < 4; ++c) {
+      float h = fetch_image(at + uint(clamp(i - 1 + c, 0, n - 1)));
+      row_value = row_value + wx[c] * h;
+      row_slope = row_slope + dx[c] * h;
+    }
+    value = value + wy[r] * row_value;
+    along_u = along_u + wy[r] * row_slope;
+    along_v = along_v + dy[r] * row_value;
+  }
+  UvSample s = UvSample(value, 0.0, 0.0);
+  if (u >= 0.0 && u <= 1.0) {
+    TERRAIN_PRECISE float du = float(n - 1) * along_u;
+    s.du = du;
+  }
+  if (v >= 0.0 && v <= 1.0) {
+    TERRAIN_PRECISE float dv = float(m - 1) * along_v;
+    s.dv = dv;
+  }
+  return s;
+}
+
 // The Wyvill-type ramp w(t) = 1 − (1 − t²)³ on [0, 1] and its slope (heightfield.cpp ramp()).
 vec2 hf_ramp(float t) {
   if (!(t > 0.0)) return vec2(0.0);
@@ -433,7 +493,8 @@ UvSample heightfield_height(uint base, float u, float v) {
   int m = int(fetch_pool(base + 1u));
   float offset = fetch_pool(base + 2u);
   float scale = fetch_pool(base + 3u);
-  UvSample s = hf_bilinear(base + 8u, n, m, u, v);
+  UvSample s = fetch_pool(base + 7u) > 0.5 ? hf_bicubic(base + 8u, n, m, u, v)
+                                           : hf_bilinear(base + 8u, n, m, u, v);
   TERRAIN_PRECISE float value = offset + scale * s.value;
   TERRAIN_PRECISE float du = scale * s.du;
   TERRAIN_PRECISE float dv = scale * s.dv;

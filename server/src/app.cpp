@@ -236,6 +236,7 @@ App::App(Config config, std::unique_ptr<Store> store)
     : config_(std::move(config)),
       store_(std::move(store)),
       cache_(config_.cache_bytes),
+      bake_cache_(static_cast<std::size_t>(config_.bake_cache_bytes)),
       client_(StaticFiles::load(config_.client_dir)) {
   if (RedisCache::Options redis;
       !config_.redis_url.empty() && RedisCache::parse_url(config_.redis_url, redis)) {
@@ -568,6 +569,9 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     return render(request, loaded, target, PictureProduct::depth);
   }
   if (rest.size() == 1 && rest[0] == "trace.json") return trace_bundle(request, loaded, pinned);
+  if (rest.size() == 1 && rest[0] == "analysis.json") {
+    return scene_analysis(request, loaded, target, pinned);
+  }
 
   // Tiles and meshes: /tiles/{z}/{x}/{y}.{png,tif}, /mesh/{z}/{x}/{y}.{terrain,glb,drc}
   if (rest.size() != 4 || (rest[0] != "tiles" && rest[0] != "mesh")) {

@@ -143,6 +143,8 @@ const std::vector<App::Route>& App::routes() {
         {get, "/api/v1/scenes/{ref}/depth.bin", "depth", Body::none, true, &App::scene_route},
         {get, "/api/v1/scenes/{ref}/trace.json", "trace.json", Body::none, true, &App::scene_route},
         {get, "/api/v1/scenes/{ref}/program", "program", Body::none, true, &App::scene_route},
+        {get, "/api/v1/scenes/{ref}/analysis.json", "analysis.json", Body::none, true,
+         &App::scene_route},
         {get, "/api/v1/scenes/{ref}/sample", "sample", Body::none, true, &App::scene_route},
         {get, "/api/v1/scenes/{ref}/tilejson.json", "tilejson.json", Body::none, true,
          &App::scene_route},

@@ -279,7 +279,9 @@ terrain::Status App::seed_examples() {
       hashes[image] = blob.hash;
     }
     rewrite_images(document, hashes);
-    auto scene = parse_stored(document.dump());
+    // Checked and canonicalised: the first load of the version bakes its grids, off the I/O
+    // threads, as any stored version's.
+    auto scene = parse_stored(document.dump(), SceneSource::seed);
     if (!scene) return Error{file.string() + ": " + scene.error().message, scene.error().pointer};
     SceneVersion first;
     first.name = (*scene)->name;

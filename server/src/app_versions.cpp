@@ -64,6 +64,8 @@ terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> App::pars
   if (source == SceneSource::stored) {
     options.limits.max_name_bytes = std::numeric_limits<std::size_t>::max();
   }
+  options.bake = source != SceneSource::seed;
+  options.bake_cache = &bake_cache_;
   // Every image node packs its own copy of its pixels into the program, so the bound counts
   // each use; decoding is done once per image (decoded_image).
   std::int64_t pixels = 0;

@@ -74,6 +74,10 @@ const std::vector<Option>& options() {
        "evaluator: auto, gpu or cpu"},
       {"cache.memory_bytes", "--cache-bytes", "TERRAIN_CACHE_BYTES", &Config::cache_bytes, 0, kBig,
        "in-memory tile cache budget (suffixes K, M, G allowed)"},
+      {"cache.bake_bytes", "--bake-cache-bytes", "TERRAIN_BAKE_CACHE_BYTES",
+       &Config::bake_cache_bytes, 0, kBig,
+       "erosion grids kept in memory by content hash, so a scene parsed again does not erode "
+       "again"},
       {"cache.disk_dir", "--disk-cache-dir", "TERRAIN_DISK_CACHE_DIR", &Config::disk_cache_dir, 0,
        0, "directory of the on-disk tile cache (empty = none)"},
       {"cache.disk_bytes", "--disk-cache-bytes", "TERRAIN_DISK_CACHE_BYTES",

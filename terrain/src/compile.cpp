@@ -233,6 +233,10 @@ std::string base64(const void* data, std::size_t size) {
 }
 
 Result<Program> compile(const Scene& scene, const CompileOptions& options) {
+  if (!scene.baked) {
+    return Error{"the scene was parsed without baking its grids and cannot be compiled", "",
+                 ErrorKind::internal};
+  }
   Compiler compiler(options);
   Result<Program> program = compiler.run(scene, *scene.root, scene.bounds, "/root");
   if (program && options.bound_queries > 0) {

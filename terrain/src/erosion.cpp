@@ -457,7 +457,16 @@ Result<std::vector<float>> erode(const ElevationGrid& grid, const ErosionParams&
       const double share = relief > 0.0 ? std::clamp((authored[c] - base) / relief, 0.0, 1.0) : 0.0;
       solver.uplift[c] = static_cast<float>((1.0 - p.uplift) + p.uplift * share);
     }
-    solver.z = z.empty() ? authored : resample(z, zw, zh, level.width, level.height);
+    if (z.empty()) {
+      solver.z = authored;
+    } else {
+      // The coarser result, plus the input's detail that the coarser grid could not hold: what
+      // the coarse steps carved stays carved, and what they never saw is there to shape.
+      solver.z = resample(z, zw, zh, level.width, level.height);
+      const std::vector<double> coarse_input =
+          resample(resample(input, width, height, zw, zh), zw, zh, level.width, level.height);
+      for (std::size_t c = 0; c < n; ++c) solver.z[c] += authored[c] - coarse_input[c];
+    }
     // Outlets keep the authored heights at every level.
     for (std::size_t c = 0; c < n; ++c) {
       if (solver.outlet[c] != 0) solver.z[c] = authored[c];
@@ -495,13 +504,32 @@ Result<std::vector<float>> erode(const ElevationGrid& grid, const ErosionParams&
                      (p.sea_level && input[c] <= *p.sea_level);
     if (last.outlet[c] == 0) high = std::max(high, z[c]);
   }
+  last.z = std::move(z);
   if (high > base) {
-    const double stretch = relief / (high - base);
-    for (std::size_t c = 0; c < z.size(); ++c) {
-      if (last.outlet[c] == 0) z[c] = base + (z[c] - base) * stretch;
+    // Stretched about the outlet each cell drains to, so every path keeps descending: stretching
+    // about one base would lower cells next to a high edge below it, and filling would flatten
+    // them.
+    last.route_filled(epsilon);
+    last.accumulate();
+    std::vector<double> outlet_height(last.z.size(), 0.0);
+    std::size_t summit = 0;
+    for (const std::int32_t cell : last.order()) {
+      const auto c = static_cast<std::size_t>(cell);
+      const std::int32_t r = last.receivers()[c];
+      outlet_height[c] = r < 0 ? last.z[c] : outlet_height[static_cast<std::size_t>(r)];
+      if (last.outlet[c] == 0 && (last.outlet[summit] != 0 || last.z[c] > last.z[summit])) {
+        summit = c;
+      }
+    }
+    // The summit lands on the authored top.
+    const double above = last.z[summit] - outlet_height[summit];
+    const double stretch = above > 0.0 ? (top - outlet_height[summit]) / above : 1.0;
+    for (std::size_t c = 0; c < last.z.size(); ++c) {
+      if (last.outlet[c] == 0) {
+        last.z[c] = outlet_height[c] + (last.z[c] - outlet_height[c]) * stretch;
+      }
     }
   }
-  last.z = std::move(z);
   last.talus(talus_slope);
   last.route_filled(epsilon);
   last.accumulate();

@@ -72,6 +72,57 @@ UvSample bilinear(const float* pool, std::size_t grid, int n, int m, float u, fl
   return s;
 }
 
+/// Catmull-Rom weights of the four samples around t in [0, 1] (from one before the cell to one
+/// after) and their derivatives. Written op by op as gpu/glsl/nodes.glsl's hf_cubic_weights.
+struct CubicWeights {
+  float w[4];
+  float d[4];
+};
+
+CubicWeights cubic_weights(float t) {
+  const float t2 = t * t;
+  const float t3 = t2 * t;
+  CubicWeights c{};
+  c.w[0] = (2.0f * t2 - t3 - t) * 0.5f;
+  c.w[1] = (3.0f * t3 - 5.0f * t2 + 2.0f) * 0.5f;
+  c.w[2] = (4.0f * t2 - 3.0f * t3 + t) * 0.5f;
+  c.w[3] = (t3 - t2) * 0.5f;
+  c.d[0] = (4.0f * t - 3.0f * t2 - 1.0f) * 0.5f;
+  c.d[1] = (9.0f * t2 - 10.0f * t) * 0.5f;
+  c.d[2] = (8.0f * t - 9.0f * t2 + 1.0f) * 0.5f;
+  c.d[3] = (3.0f * t2 - 2.0f * t) * 0.5f;
+  return c;
+}
+
+// Catmull-Rom bicubic over a grid of n × m floats at pool[grid]; clamping as bilinear().
+UvSample bicubic(const float* pool, std::size_t grid, int n, int m, float u, float v) {
+  const float x = clamp01(u) * static_cast<float>(n - 1);
+  const float y = clamp01(v) * static_cast<float>(m - 1);
+  const int i = std::min(static_cast<int>(x), n - 2);
+  const int j = std::min(static_cast<int>(y), m - 2);
+  const CubicWeights cx = cubic_weights(x - static_cast<float>(i));
+  const CubicWeights cy = cubic_weights(y - static_cast<float>(j));
+  float value = 0.0f, along_u = 0.0f, along_v = 0.0f;
+  for (int r = 0; r < 4; ++r) {
+    const int row = std::clamp(j - 1 + r, 0, m - 1);
+    const std::size_t at = grid + static_cast<std::size_t>(row) * static_cast<std::size_t>(n);
+    float row_value = 0.0f, row_slope = 0.0f;
+    for (int c = 0; c < 4; ++c) {
+      const float h = pool[at + static_cast<std::size_t>(std::clamp(i - 1 + c, 0, n - 1))];
+      row_value = row_value + cx.w[c] * h;
+      row_slope = row_slope + cx.d[c] * h;
+    }
+    value = value + cy.w[r] * row_value;
+    along_u = along_u + cy.w[r] * row_slope;
+    along_v = along_v + cy.d[r] * row_value;
+  }
+  UvSample s;
+  s.value = value;
+  if (u >= 0.0f && u <= 1.0f) s.du = static_cast<float>(n - 1) * along_u;
+  if (v >= 0.0f && v <= 1.0f) s.dv = static_cast<float>(m - 1) * along_v;
+  return s;
+}
+
 // The Wyvill-type ramp and its slope at once.
 struct Ramp {
   float value = 0.0f;
@@ -112,7 +163,9 @@ UvSample heightfield_height(const float* pool, std::size_t base, float u, float 
   const int m = static_cast<int>(pool[base + hl::kRows]);
   const float offset = pool[base + hl::kOffset];
   const float scale = pool[base + hl::kScale];
-  const UvSample s = bilinear(pool, base + hl::kHeader, n, m, u, v);
+  const UvSample s = pool[base + hl::kCubic] > 0.5f
+                         ? bicubic(pool, base + hl::kHeader, n, m, u, v)
+                         : bilinear(pool, base + hl::kHeader, n, m, u, v);
   return {offset + scale * s.value, scale * s.du, scale * s.dv};
 }
 
@@ -204,8 +257,10 @@ Result<Heightfield> Heightfield::create(const Raster& raster, const HeightfieldP
   double dv = 0.0;
   max_differences(raster.samples, du, dv);
   const double scale = std::abs(static_cast<double>(params.scale));
-  const double lu = scale * du * (n - 1);
-  const double lv = scale * dv * (m - 1);
+  // Bicubic slopes reach 2 × 1.25 times the largest difference (heightfield.hpp).
+  const double interpolation = params.cubic ? 2.5 : 1.0;
+  const double lu = interpolation * scale * du * (n - 1);
+  const double lv = interpolation * scale * dv * (m - 1);
   // A few ulps of headroom: the float evaluation rounds each difference and product.
   constexpr double kHeadroom = 1.0 + 1e-5;
   hf.lipschitz_u_ = round_up(lu * kHeadroom);
@@ -229,6 +284,11 @@ Result<Heightfield> Heightfield::create(const Raster& raster, const HeightfieldP
   const double b = params.offset + static_cast<double>(params.scale) * *hi;
   const double pad = 1e-6 * std::max({std::abs(a), std::abs(b), 1e-30});
   hf.range_ = {static_cast<float>(std::min(a, b) - pad), static_cast<float>(std::max(a, b) + pad)};
+  if (params.cubic) {
+    const double middle = 0.5 * (a + b);
+    const double half = 0.5 * std::abs(b - a) * 1.5625;
+    hf.range_ = {static_cast<float>(middle - half - pad), static_cast<float>(middle + half + pad)};
+  }
 
   std::vector<float>& r = hf.record_;
   r.assign(hl::kHeader, 0.0f);
@@ -238,6 +298,7 @@ Result<Heightfield> Heightfield::create(const Raster& raster, const HeightfieldP
   r[hl::kScale] = params.scale;
   r[hl::kMarginU] = params.margin_u;
   r[hl::kMarginV] = params.margin_v;
+  r[hl::kCubic] = params.cubic ? 1.0f : 0.0f;
   r[hl::kHasWeight] = has_weight ? 1.0f : 0.0f;
   r.insert(r.end(), raster.samples.begin(), raster.samples.end());
   if (has_weight) r.insert(r.end(), raster.weights.begin(), raster.weights.end());

@@ -34,6 +34,36 @@ std::uint32_t ParseContext::noise_seed(std::int64_t node_seed) const {
   return noise::hash(scene_seed, static_cast<std::uint32_t>(node_seed));
 }
 
+std::shared_ptr<const std::vector<float>> BakeCache::find(const std::string& key) {
+  std::lock_guard lock(mutex_);
+  auto it = entries_.find(key);
+  if (it == entries_.end()) return nullptr;
+  it->second.second = ++clock_;
+  return it->second.first;
+}
+
+void BakeCache::insert(const std::string& key, std::shared_ptr<const std::vector<float>> grid) {
+  const std::size_t size = grid->size() * sizeof(float);
+  if (size > max_bytes_) return;
+  std::lock_guard lock(mutex_);
+  auto [it, inserted] = entries_.try_emplace(key, std::move(grid), ++clock_);
+  if (!inserted) return;
+  bytes_ += size;
+  while (bytes_ > max_bytes_) {
+    auto oldest = entries_.begin();
+    for (auto e = entries_.begin(); e != entries_.end(); ++e) {
+      if (e->second.second < oldest->second.second) oldest = e;
+    }
+    bytes_ -= oldest->second.first->size() * sizeof(float);
+    entries_.erase(oldest);
+  }
+}
+
+std::size_t BakeCache::bytes() const {
+  std::lock_guard lock(mutex_);
+  return bytes_;
+}
+
 Box2 Scene::area() const {
   if (extent) return *extent;
   if (!bounds.support.empty() && std::isfinite(bounds.support.lo.x)) return bounds.support;
@@ -265,6 +295,7 @@ Result<Scene> SceneParser::parse() {
   }
   scene.canonical = std::move(canonical);
   scene.hash = "sha256:" + sha256_hex(scene.canonical_text());
+  scene.baked = !context_.unbaked;
   return scene;
 }
 

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "gpu/backend.hpp"
 #include "terrain/tile_products.hpp"
@@ -33,11 +34,15 @@ TEST(GpuTiles, EncodeToTheSameBytesAsCpuTiles) {
   ASSERT_TRUE(choice.ok()) << choice.error().message;
   ASSERT_NE(choice->backend, nullptr);
   int total = 0, identical = 0, gpu_made = 0;
-  for (const char* name :
-       {"butte", "craters", "hills-river", "lake-dunes", "mountain-range", "winding-road"}) {
-    auto scene = terrain::load_scene_file(
-        (fs::path(TERRAIN_SOURCE_DIR) / "config" / "scenes" / (std::string(name) + ".json"))
-            .string());
+  std::vector<fs::path> files;  // every example scene
+  for (const auto& entry :
+       fs::directory_iterator(fs::path(TERRAIN_SOURCE_DIR) / "config" / "scenes")) {
+    if (entry.path().extension() == ".json") files.push_back(entry.path());
+  }
+  std::sort(files.begin(), files.end());
+  for (const fs::path& file : files) {
+    const std::string name = file.stem().string();
+    auto scene = terrain::load_scene_file(file.string());
     ASSERT_TRUE(scene.ok()) << name << ": " << scene.error().message;
     auto source = terrain::TileSource::from_scene(*scene);
     ASSERT_TRUE(source.ok());

@@ -121,8 +121,8 @@ TEST_F(HttpApi, SceneListHoldsTheBuiltInScenes) {
     EXPECT_GE(s["version"].get<int>(), 1);
     EXPECT_EQ(s["url"], "/api/v1/scenes/" + s["id"].get<std::string>());
   }
-  for (const char* id :
-       {"butte", "craters", "hills-river", "lake-dunes", "mountain-range", "winding-road"}) {
+  for (const char* id : {"alpine-valleys", "butte", "coastal-range", "craters", "hills-river",
+                         "lake-dunes", "mountain-range", "river-basin", "winding-road"}) {
     EXPECT_TRUE(ids.contains(id)) << id;
   }
 }

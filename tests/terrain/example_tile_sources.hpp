@@ -1,9 +1,11 @@
 // The built-in example scenes (config/scenes) as tile sources, for the tile tests.
 #pragma once
 
+#include <algorithm>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "terrain/tile_source.hpp"
 
@@ -11,6 +13,16 @@ namespace terrain::testing {
 
 inline const std::filesystem::path kExampleScenes =
     std::filesystem::path(TERRAIN_SOURCE_DIR) / "config" / "scenes";
+
+/// Every example scene's name (config/scenes/*.json), sorted.
+inline std::vector<std::string> example_scene_names() {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(kExampleScenes)) {
+    if (entry.path().extension() == ".json") names.push_back(entry.path().stem().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
 
 /// Loads and compiles an example scene; a broken example fails the test that asked for it.
 inline TileSource example_source(const std::string& name) {

@@ -646,3 +646,68 @@ TEST(QuadMapInverse, ComposedHeightGradientMatchesFiniteDifferencesAndBound) {
 
 }  // namespace
 }  // namespace terrain
+
+namespace terrain {
+namespace {
+
+// Catmull-Rom bicubic heights (HeightfieldParams::cubic), what the erosion node packs.
+
+TEST(HeightfieldBicubic, PassesThroughTheSamples) {
+  std::mt19937 rng(11);
+  const Raster r = random_raster(9, 7, rng, 3.0f, 2.0f);
+  const Heightfield hf = make(r, {.cubic = true});
+  for (int j = 0; j < 7; ++j) {
+    for (int i = 0; i < 9; ++i) {
+      EXPECT_NEAR(hf.height(static_cast<float>(i) / 8.0f, static_cast<float>(j) / 6.0f).value,
+                  r.at(i, j), 1e-5f);
+    }
+  }
+}
+
+TEST(HeightfieldBicubic, GradientMatchesCentralDifferencesAndIsContinuousAcrossCells) {
+  std::mt19937 rng(12);
+  const Raster r = random_raster(12, 10, rng, 2.0f, 1.0f);
+  const Heightfield hf = make(r, {.cubic = true});
+  std::uniform_real_distribution<float> coord(0.02f, 0.98f);
+  const float h = 1e-3f;
+  for (int trial = 0; trial < 500; ++trial) {
+    const float u = coord(rng), v = coord(rng);
+    const UvSample s = hf.height(u, v);
+    const float du = (hf.height(u + h, v).value - hf.height(u - h, v).value) / (2 * h);
+    const float dv = (hf.height(u, v + h).value - hf.height(u, v - h).value) / (2 * h);
+    EXPECT_NEAR(s.du, du, 0.02f * (1.0f + std::abs(du))) << u << "," << v;
+    EXPECT_NEAR(s.dv, dv, 0.02f * (1.0f + std::abs(dv))) << u << "," << v;
+  }
+  // C1: on both sides of every inner cell edge the derivatives agree.
+  for (int i = 1; i < 11; ++i) {
+    const float edge = static_cast<float>(i) / 11.0f;
+    for (const float v : {0.13f, 0.5f, 0.77f}) {
+      const UvSample left = hf.height(std::nextafter(edge, 0.0f), v);
+      const UvSample right = hf.height(std::nextafter(edge, 1.0f), v);
+      EXPECT_NEAR(left.du, right.du, 1e-3f * (1.0f + std::abs(left.du))) << i;
+    }
+  }
+}
+
+TEST(HeightfieldBicubic, LipschitzBoundAndRangeHold) {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> coord(-0.2f, 1.2f);
+  std::uniform_real_distribution<float> near(-0.01f, 0.01f);
+  for (const auto& shape : {std::pair{4, 4}, std::pair{17, 5}, std::pair{40, 40}}) {
+    const Raster r = random_raster(shape.first, shape.second, rng, 4.0f, 1.0f);
+    const Heightfield hf = make(r, {.offset = 3.0f, .scale = -2.0f, .cubic = true});
+    for (int trial = 0; trial < 4000; ++trial) {
+      const Vec2 p{coord(rng), coord(rng)};
+      const Vec2 q =
+          trial % 2 == 0 ? Vec2{coord(rng), coord(rng)} : Vec2{p.x + near(rng), p.y + near(rng)};
+      const double hp = hf.height(p.x, p.y).value, hq = hf.height(q.x, q.y).value;
+      const double dist = std::hypot(static_cast<double>(p.x - q.x), p.y - q.y);
+      ASSERT_LE(std::abs(hp - hq), hf.lipschitz() * dist * (1 + 1e-4) + 1e-4);
+      ASSERT_GE(hp, hf.height_range().lo);
+      ASSERT_LE(hp, hf.height_range().hi);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace terrain

@@ -13,9 +13,6 @@ namespace {
 
 using testing::ProductHashes;
 
-const char* const kSceneNames[] = {"butte",      "craters",        "hills-river",
-                                   "lake-dunes", "mountain-range", "winding-road"};
-
 // The tile of the middle of the scene's area at zoom z of a scheme.
 TileAddress middle_tile(const TileSource& source, TileScheme scheme, int z) {
   const TileRange r = tiles_covering_area(source, scheme, z);
@@ -24,7 +21,7 @@ TileAddress middle_tile(const TileSource& source, TileScheme scheme, int z) {
 
 TEST(ProductGoldens, EveryExampleSceneMakesTheBytesOfItsGeneration) {
   ProductHashes made;
-  for (const char* scene : kSceneNames) {
+  for (const std::string& scene : testing::example_scene_names()) {
     ProductMaker maker(testing::example_source(scene));
     const TileSource& source = maker.source();
     // Each format where clients ask for it: meshes and images in the scene's own grid, images

@@ -718,3 +718,36 @@ TEST(SceneChange, RaisingALakeBedChangesTheMaskWhereBothAre) {
 
 }  // namespace
 }  // namespace terrain
+
+namespace terrain {
+namespace {
+
+// An erosion node bakes its whole subtree into one grid: an edit under it may change every
+// sample of its square (the rivers reroute), and nothing outside.
+TEST(SceneChange, EditingUnderAnErosionChangesItsSquareAndNothingElse) {
+  const json base = json::parse(R"({
+    "seed": 7, "extent": {"min": [-3000, -3000], "max": [3000, 3000]},
+    "root": {"type": "blend", "children": [
+      {"type": "disc", "center": [0, 0], "radius": 4300, "elevation": 100},
+      {"type": "erosion", "resolution": 48, "iterations": 6, "center": [1210.5, 1190.25],
+       "size": 1300.5, "children": [
+        {"type": "disc", "center": [1210.5, 1190.25], "radius": 600.5, "elevation": 300,
+         "noise": {"kind": "ridged", "amplitude": 200, "wavelength": 400, "octaves": 4}}]}]}})");
+  json edited = base;
+  edited["root"]["children"][1]["children"][0]["elevation"] = 340;
+  const Box2 square{{1210.5f - 650.25f, 1190.25f - 650.25f}, {1210.5f + 650.25f, 1190.25f + 650.25f}};
+  // A predicted tile that kept its heights lies on the square's border fall-off at most.
+  const Explain on_the_square = [square](const HeightTile& t) {
+    for (std::size_t i = 0; i < t.scene_x.size(); ++i) {
+      if (square.contains({static_cast<float>(t.scene_x[i]), static_cast<float>(t.scene_y[i])})) {
+        return true;
+      }
+    }
+    return false;
+  };
+  expect_local_prediction(version_of(base), version_of(edited), hills_grid(), "erosion",
+                          on_the_square);
+}
+
+}  // namespace
+}  // namespace terrain

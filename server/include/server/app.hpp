@@ -186,6 +186,9 @@ class App {
   Outcome render(const Request& request, const LoadedVersion& loaded, const Target& target,
                  PictureProduct product);
   Outcome trace_bundle(const Request& request, const LoadedVersion& loaded, bool pinned);
+  /// GET …/analysis.json: the scene's geomorphometry (app_analysis.cpp).
+  Outcome scene_analysis(const Request& request, const LoadedVersion& loaded, const Target& target,
+                         bool pinned);
   Response trace_glsl(const Request& request) const;
   Response node_types(const Request& request) const;
   bool token_matches(std::string_view given) const;  // constant time
@@ -236,10 +239,11 @@ class App {
   terrain::Result<LoadedPlanet, Response> resolve_planet(const Request& request,
                                                          const std::string& ref);
 
-  /// How a scene text is read: as new input (every limit of today), or as a version stored
+  /// How a scene text is read: as new input (every limit of today), as a version stored
   /// already, which was valid when it was written and must stay readable (limits added since,
-  /// such as the name's length, are not applied to it).
-  enum class SceneSource { input, stored };
+  /// such as the name's length, are not applied to it), or as a built-in scene being stored,
+  /// whose grids (erosion) are left for the first load of its version to bake.
+  enum class SceneSource { input, stored, seed };
   terrain::Result<LoadedVersion, Response> resolve(const Request& request, const std::string& ref);
   /// The scheme and authority absolute URLs start with: server.public_url when set, else
   /// "http://" and the request's Host once validated (400 naming /headers/host otherwise).
@@ -268,6 +272,9 @@ class App {
   std::unique_ptr<Store> store_;
   Metrics metrics_;
   ProductCache cache_;
+  /// Erosion grids by the content hash of what made them: a version parsed again (stored, then
+  /// loaded; edited elsewhere) does not erode again.
+  terrain::BakeCache bake_cache_;
   std::unique_ptr<DiskCache> disk_cache_;  ///< null unless cache.disk_dir is set
   std::unique_ptr<RedisCache> redis_;      ///< null unless cache.redis_url is set
   /// A product from the caches behind the in-memory LRU (disk, then Redis), copied into the

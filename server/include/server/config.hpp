@@ -50,8 +50,9 @@ struct Config {
   int picture_steps_per_pixel = 64;
   Backend backend = Backend::automatic;
   // caches
-  std::int64_t cache_bytes = 256ll << 20;  ///< in-memory LRU budget
-  std::string disk_cache_dir;              ///< empty = no on-disk cache
+  std::int64_t cache_bytes = 256ll << 20;       ///< in-memory LRU budget
+  std::int64_t bake_cache_bytes = 256ll << 20;  ///< erosion grids kept by content hash
+  std::string disk_cache_dir;                   ///< empty = no on-disk cache
   std::int64_t disk_cache_bytes = 2ll << 30;
   std::string redis_url;  ///< shared product cache ("redis://host:port"); empty = none
   int redis_ttl_seconds = 7 * 24 * 3600;  ///< entries expire after this long

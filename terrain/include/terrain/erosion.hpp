@@ -25,7 +25,7 @@ struct ErosionParams {
   double concavity = 0.45;    ///< m/n with n = 1: Flint's law θ at steady state
   double uplift = 0.6;        ///< 0: uniform uplift; 1: proportional to the input's height
   double diffusion = 0.05;    ///< hillslope diffusion per step, κΔt/Δx² on the finest grid
-  double talus_angle = 40.0;  ///< degrees: no slope steeper is kept
+  double talus_angle = 60.0;  ///< degrees: no slope steeper is kept
   std::optional<double> sea_level = {};  ///< cells at or below are sea: fixed outlets
 };
 

@@ -53,6 +53,8 @@ struct HeightfieldParams {
   float scale = 1.0f;      ///< may be negative or zero
   float margin_u = 0.05f;  ///< width of the border fall-off in u, in (0, 0.5]
   float margin_v = 0.05f;  ///< width of the border fall-off in v, in (0, 0.5]
+  /// Heights by Catmull-Rom bicubic interpolation (C1, through the samples) instead of bilinear.
+  bool cubic = false;
 };
 
 /// Offsets inside a packed heightfield record (floats; integers are stored exactly as floats).
@@ -64,11 +66,14 @@ inline constexpr std::size_t kScale = 3;      ///< height scale
 inline constexpr std::size_t kMarginU = 4;    ///< border fall-off width in u
 inline constexpr std::size_t kMarginV = 5;    ///< border fall-off width in v
 inline constexpr std::size_t kHasWeight = 6;  ///< 1 when a weight grid follows the heights
-inline constexpr std::size_t kHeader = 8;     ///< [7] is reserved (0); samples start here
+inline constexpr std::size_t kCubic = 7;      ///< 1: heights bicubic (Catmull-Rom), 0: bilinear
+inline constexpr std::size_t kHeader = 8;     ///< samples start here
 }  // namespace heightfield_layout
 
-/// Height at (u, v) from a packed record starting at pool[base]: bilinear in the samples, (u, v)
-/// clamped to [0, 1]² (constant extension, zero derivative across the clamp). Sample (i, j) sits
+/// Height at (u, v) from a packed record starting at pool[base]: bilinear in the samples, or
+/// Catmull-Rom bicubic when the record says so (C1; the tangent at a sample is half the
+/// difference of its two neighbours, indices clamped to the grid), (u, v) clamped to [0, 1]²
+/// (constant extension, zero derivative across the clamp). Sample (i, j) sits
 /// at u = i/(n−1), v = j/(m−1), with j the raster row (v = 0 is the top, north row). On a cell
 /// edge the derivative is that of the cell chosen by floor, clamped to the last cell.
 UvSample heightfield_height(const float* pool, std::size_t base, float u, float v);
@@ -97,7 +102,10 @@ class Heightfield {
   UvSample weight(float u, float v) const { return heightfield_weight(record_.data(), 0, u, v); }
 
   /// sup |∂h/∂u| = |scale| · (n−1) · max |h(i+1, j) − h(i, j)|: inside a cell ∂h/∂u is a convex
-  /// combination of the cell's two horizontal differences times n−1.
+  /// combination of the cell's two horizontal differences times n−1. Bicubic: 2.5 times that
+  /// (a Catmull-Rom segment's slope is at most twice the largest neighbour difference D, at
+  /// t = 1/2: 6t(1−t)·D + |1−4t+3t²|·D + |3t²−2t|·D; the weights across sum to at most 1.25 in
+  /// absolute value).
   float lipschitz_u() const { return lipschitz_u_; }
   /// sup |∂h/∂v| = |scale| · (m−1) · max |h(i, j+1) − h(i, j)|.
   float lipschitz_v() const { return lipschitz_v_; }
@@ -112,7 +120,9 @@ class Heightfield {
   /// factors lie in [0, 1], so |∇(ab)| ≤ |∇a| + |∇b|). heightfield.cpp explains why the product
   /// fall-off's slope is bounded by W'/margin rather than √2·W'/margin.
   float weight_lipschitz() const { return weight_lipschitz_; }
-  /// Range of heights: bilinear values are convex combinations of the samples.
+  /// Range of heights: bilinear values are convex combinations of the samples; bicubic ones
+  /// overshoot by at most 1.5625 (1.25² of the weights) times half the samples' spread about
+  /// its middle.
   Interval height_range() const { return range_; }
 
   /// Number of floats pack() appends.

@@ -5,10 +5,14 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -51,9 +55,36 @@ struct DeclaredNumber {
   bool integer = false;
 };
 
+/// Grids that nodes bake while a scene is parsed (erosion), kept by the content hash of all that
+/// made them, so that parsing a scene again (a new version that left the subtree alone, the
+/// load after a store) does not redo the work. Thread-safe; at most `max_bytes` of grids, the
+/// least recently used dropped first.
+class BakeCache {
+ public:
+  explicit BakeCache(std::size_t max_bytes) : max_bytes_(max_bytes) {}
+  std::shared_ptr<const std::vector<float>> find(const std::string& key);
+  void insert(const std::string& key, std::shared_ptr<const std::vector<float>> grid);
+  std::size_t bytes() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::size_t max_bytes_;
+  std::size_t bytes_ = 0;
+  std::uint64_t clock_ = 0;
+  std::map<std::string, std::pair<std::shared_ptr<const std::vector<float>>, std::uint64_t>,
+           std::less<>>
+      entries_;
+};
+
 struct ParseOptions {
   SceneLimits limits;
   ImageResolver images;  ///< required only by scenes with image primitives
+  /// false: validate and canonicalise only (name, hash, canonical text): nodes that bake a grid
+  /// check their parameters and cost but do not compute it, and the scene, marked unbaked, is
+  /// refused by compile(). Storing a built-in scene needs no more.
+  bool bake = true;
+  /// Where baked grids are looked up and kept (none: always computed).
+  BakeCache* bake_cache = nullptr;
   /// When set, every number that node parsers check is appended here with its range: the
   /// property tests enumerate each node type's parameters and limits this way.
   std::vector<DeclaredNumber>* declared_numbers = nullptr;
@@ -82,6 +113,9 @@ struct Scene {
   NodeBounds water_bounds;   ///< global bounds of the water layer, when there is one
   nlohmann::json canonical;  ///< canonical JSON (defaults explicit), what serialise() writes
   std::string hash;          ///< "sha256:<hex>" of canonical_text()
+  /// False when parsed with ParseOptions::bake = false and some node skipped its grid: such a
+  /// scene has its canonical form and hash but cannot be compiled.
+  bool baked = true;
 
   /// The canonical text: keys sorted, no whitespace, shortest round-trip numbers.
   std::string canonical_text() const { return canonical.dump(); }
@@ -111,6 +145,8 @@ struct ParseContext {
   /// Erosion work spent by the nodes parsed so far (checked against SceneLimits).
   std::int64_t erosion_work = 0;
   std::int64_t erosion_evaluations = 0;
+  /// Set by a node that skipped baking its grid (ParseOptions::bake = false).
+  bool unbaked = false;
   const ParseOptions* options = nullptr;
   /// Derives a node's noise seed from the scene seed and the node's own "seed" field.
   std::uint32_t noise_seed(std::int64_t node_seed) const;

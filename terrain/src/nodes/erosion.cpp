@@ -15,6 +15,20 @@
 namespace terrain {
 namespace {
 
+/// Appends what evaluating a subtree depends on — each node's type and packed parameters (seeds,
+/// images and all), its children in order — to `out`: two subtrees with the same bytes evaluate
+/// the same everywhere.
+void append_content(const Node& node, std::string& out) {
+  const std::uint16_t id = node.type->id;
+  const auto floats = static_cast<std::uint64_t>(node.params.pool.size());
+  const auto children = static_cast<std::uint64_t>(node.children.size());
+  out.append(reinterpret_cast<const char*>(&id), sizeof id);
+  out.append(reinterpret_cast<const char*>(&floats), sizeof floats);
+  out.append(reinterpret_cast<const char*>(node.params.pool.data()), floats * sizeof(float));
+  out.append(reinterpret_cast<const char*>(&children), sizeof children);
+  for (const NodePtr& child : node.children) append_content(*child, out);
+}
+
 /// Nodes of a subtree with references expanded (a shared subtree counts once per use).
 std::int64_t expanded_nodes(const Node& node) {
   std::int64_t count = 1;
@@ -95,7 +109,7 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
   p.concavity = reader.number("concavity", 0.45, {kMinConcavity, kMaxConcavity});
   p.uplift = reader.number("uplift", 0.6, {0.0, 1.0});
   p.diffusion = reader.number("diffusion", 0.05, {0.0, kMaxDiffusion});
-  p.talus_angle = reader.number("talus_angle", 40.0, {kMinTalusAngle, kMaxTalusAngle});
+  p.talus_angle = reader.number("talus_angle", 60.0, {kMinTalusAngle, kMaxTalusAngle});
   if (reader.has("sea_level")) p.sea_level = reader.number("sea_level", std::nullopt, {-1e5, 1e5});
   const auto margin = static_cast<float>(reader.number("margin", 0.02, {0.001, 0.5}));
   if (!reader.ok()) return reader.error();
@@ -121,8 +135,41 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
   }
 
   const double step = size / (resolution - 1);
-  const Vec2 origin{static_cast<float>(center.x - 0.5 * size),
-                    static_cast<float>(center.y - 0.5 * size)};
+  const auto lo_x = static_cast<float>(center.x - 0.5 * size);
+  const auto hi_x = static_cast<float>(center.x + 0.5 * size);
+  const auto lo_y = static_cast<float>(center.y - 0.5 * size);
+  const auto hi_y = static_cast<float>(center.y + 0.5 * size);
+  // Corners north-west, north-east, south-east, south-west: raster row 0 is the north.
+  Result<QuadMap> quad = QuadMap::create({lo_x, hi_y}, {hi_x, hi_y}, {hi_x, lo_y}, {lo_x, lo_y});
+  if (!quad) return Error{quad.error().message, pointer_join(reader.pointer(), "size")};
+  HeightfieldParams hp;
+  hp.margin_u = hp.margin_v = margin;
+  hp.cubic = true;  // C1: no creases along the grid's cells in hillshades and normals
+
+  NodeParams out;
+  out.canonical = reader.canonical();
+  if (!context.options->bake) {
+    // Validated and costed; the grid is made when the scene is parsed to be served. A flat
+    // stand-in keeps the node's bounds defined meanwhile.
+    context.unbaked = true;
+    Raster flat;
+    flat.width = flat.height = 2;
+    flat.samples.assign(4, context.base_elevation);
+    out.pool = pack_image_on_quad(Heightfield::create(flat, hp).value(), *quad);
+    return out;
+  }
+  std::string content =
+      "erosion/1 " + out.canonical.dump() + " base " + std::to_string(context.base_elevation) + " ";
+  append_content(child, content);
+  const std::string key = sha256_hex(content);
+  if (BakeCache* cache = context.options->bake_cache) {
+    if (auto grid = cache->find(key)) {
+      out.pool = *grid;
+      return out;
+    }
+  }
+
+  const Vec2 origin{lo_x, lo_y};
   Raster raster;
   raster.width = raster.height = resolution;
   raster.samples = sample_child(child, context.base_elevation, origin, step, resolution);
@@ -140,22 +187,19 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
     std::copy_n(eroded->begin() + static_cast<std::ptrdiff_t>(j * row), row,
                 raster.samples.begin() + static_cast<std::ptrdiff_t>((row - 1 - j) * row));
   }
-  HeightfieldParams hp;
-  hp.margin_u = hp.margin_v = margin;
   Result<Heightfield> field = Heightfield::create(raster, hp);
   if (!field) return Error{field.error().message, reader.pointer(), ErrorKind::internal};
-  const auto lo = static_cast<float>(center.x - 0.5 * size),
-             hi_x = static_cast<float>(center.x + 0.5 * size);
-  const auto lo_y = static_cast<float>(center.y - 0.5 * size),
-             hi_y = static_cast<float>(center.y + 0.5 * size);
-  // Corners north-west, north-east, south-east, south-west: raster row 0 is the north.
-  Result<QuadMap> quad = QuadMap::create({lo, hi_y}, {hi_x, hi_y}, {hi_x, lo_y}, {lo, lo_y});
-  if (!quad) return Error{quad.error().message, pointer_join(reader.pointer(), "size")};
-
-  NodeParams out;
   out.pool = pack_image_on_quad(*field, *quad);
-  out.canonical = reader.canonical();
+  if (BakeCache* cache = context.options->bake_cache) {
+    cache->insert(key, std::make_shared<const std::vector<float>>(out.pool));
+  }
   return out;
+}
+
+// The image primitive's mapping steps, and the bicubic's 4 × 4 sample loop.
+std::size_t erosion_loop_iterations(std::span<const float> params) {
+  constexpr std::size_t kBicubicSteps = 20;
+  return image_node_type().loop_iterations(params) + kBicubicSteps;
 }
 
 }  // namespace
@@ -175,7 +219,7 @@ const NodeType& erosion_node_type() {
       .example_json = R"({"type": "erosion", "resolution": 48, "iterations": 6,
  "children": [{"type": "disc", "center": [0, 0], "radius": 600, "elevation": 300,
    "noise": {"kind": "ridged", "amplitude": 200, "wavelength": 400, "octaves": 4, "seed": 3}}]})",
-      .loop_iterations = image_node_type().loop_iterations,
+      .loop_iterations = erosion_loop_iterations,
       .shader = {.call = "image_leaf($at, $p)", .heavy = true},
   };
   return type;
