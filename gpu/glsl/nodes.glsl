@@ -493,8 +493,13 @@ UvSample heightfield_height(uint base, float u, float v) {
   int m = int(fetch_pool(base + 1u));
   float offset = fetch_pool(base + 2u);
   float scale = fetch_pool(base + 3u);
-  UvSample s = fetch_pool(base + 7u) > 0.5 ? hf_bicubic(base + 8u, n, m, u, v)
-                                           : hf_bilinear(base + 8u, n, m, u, v);
+  // (No ?: between structures: WebGL refuses it.)
+  UvSample s;
+  if (fetch_pool(base + 7u) > 0.5) {
+    s = hf_bicubic(base + 8u, n, m, u, v);
+  } else {
+    s = hf_bilinear(base + 8u, n, m, u, v);
+  }
   TERRAIN_PRECISE float value = offset + scale * s.value;
   TERRAIN_PRECISE float du = scale * s.du;
   TERRAIN_PRECISE float dv = scale * s.dv;

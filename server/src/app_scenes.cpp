@@ -281,7 +281,7 @@ terrain::Status App::seed_examples() {
     rewrite_images(document, hashes);
     // Checked and canonicalised: the first load of the version bakes its grids, off the I/O
     // threads, as any stored version's.
-    auto scene = parse_stored(document.dump(), SceneSource::seed);
+    auto scene = parse_stored(document.dump(), SceneSource::unbaked);
     if (!scene) return Error{file.string() + ": " + scene.error().message, scene.error().pointer};
     SceneVersion first;
     first.name = (*scene)->name;

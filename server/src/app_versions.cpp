@@ -64,7 +64,7 @@ terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> App::pars
   if (source == SceneSource::stored) {
     options.limits.max_name_bytes = std::numeric_limits<std::size_t>::max();
   }
-  options.bake = source != SceneSource::seed;
+  options.bake = source != SceneSource::unbaked;
   options.bake_cache = &bake_cache_;
   // Every image node packs its own copy of its pixels into the program, so the bound counts
   // each use; decoding is done once per image (decoded_image).
@@ -218,9 +218,14 @@ void App::forget_head(const std::string& id) {
 }
 
 terrain::Result<LoadedVersion, Response> App::compile_for_storing(const Request& request) {
-  auto parsed = parse_stored(request.body());
+  // Validated without baking: the canonical form compiled below is what bakes the grids.
+  auto parsed = parse_stored(request.body(), SceneSource::unbaked);
   if (!parsed) {
-    return problem(request, http::status::bad_request, "Invalid scene", parsed.error().message,
+    // Malformed: 400; well-formed but beyond what this server computes (erosion work): 422.
+    const http::status status = parsed.error().kind == terrain::ErrorKind::unsupported
+                                    ? http::status::unprocessable_entity
+                                    : http::status::bad_request;
+    return problem(request, status, "Invalid scene", parsed.error().message,
                    parsed.error().pointer);
   }
   // What is stored is the canonical text, and it is what every later read parses and compiles:

@@ -241,9 +241,10 @@ class App {
 
   /// How a scene text is read: as new input (every limit of today), as a version stored
   /// already, which was valid when it was written and must stay readable (limits added since,
-  /// such as the name's length, are not applied to it), or as a built-in scene being stored,
-  /// whose grids (erosion) are left for the first load of its version to bake.
-  enum class SceneSource { input, stored, seed };
+  /// such as the name's length, are not applied to it), or as new input only validated and
+  /// canonicalised, its grids (erosion) not baked: a built-in scene being stored (its first load
+  /// bakes it), a body before its canonical form is compiled.
+  enum class SceneSource { input, stored, unbaked };
   terrain::Result<LoadedVersion, Response> resolve(const Request& request, const std::string& ref);
   /// The scheme and authority absolute URLs start with: server.public_url when set, else
   /// "http://" and the request's Host once validated (400 naming /headers/host otherwise).

@@ -6,6 +6,7 @@
 
 #include "field_reader.hpp"
 #include "nodes/image.hpp"
+#include "nodes/stored_bounds.hpp"
 #include "terrain/erosion.hpp"
 #include "terrain/evaluate.hpp"
 #include "terrain/heightfield.hpp"
@@ -27,6 +28,94 @@ void append_content(const Node& node, std::string& out) {
   out.append(reinterpret_cast<const char*>(node.params.pool.data()), floats * sizeof(float));
   out.append(reinterpret_cast<const char*>(&children), sizeof children);
   for (const NodePtr& child : node.children) append_content(*child, out);
+}
+
+// The pool is an image primitive's on a quad (nodes/image.cpp: 0 λ_f, 1 λ_α, 2 h_lo, 3 h_hi,
+// 4..7 box, 8 mapping, 9 heightfield, 10 mode 0), whose curve-only slot 12 here holds the offset
+// of a table of local bounds: tile side in cells, tiles per side, cells per side, then per tile
+// of kTile × kTile cells its slope bound in metres per metre and its height range.
+constexpr int kBox = 4, kTable = 12;
+constexpr int kTile = 8;
+constexpr std::size_t kTileFloats = 3;
+
+/// Local bounds of a bicubic grid of n × n samples (raster rows, north first) over a square of
+/// side `side` metres: per tile, 2.5 × the largest neighbour difference per axis over its cells'
+/// stencils (a cell's cubic reads one sample more on each side), and the overshoot-widened range
+/// of those samples (heightfield.hpp).
+void pack_local_bounds(const std::vector<float>& h, int n, double side, std::vector<float>& pool) {
+  const int cells = n - 1;
+  const int tiles = (cells + kTile - 1) / kTile;
+  const double cell = side / cells;
+  pool[kTable] = static_cast<float>(pool.size());
+  pool.insert(pool.end(),
+              {static_cast<float>(kTile), static_cast<float>(tiles), static_cast<float>(cells)});
+  const auto at = [&](int i, int j) {
+    return static_cast<double>(
+        h[static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(i)]);
+  };
+  for (int tj = 0; tj < tiles; ++tj) {
+    for (int ti = 0; ti < tiles; ++ti) {
+      // Samples of the cells' stencils: one before the tile's first cell, one after its last.
+      const int i0 = std::max(ti * kTile - 1, 0), i1 = std::min((ti + 1) * kTile + 1, cells);
+      const int j0 = std::max(tj * kTile - 1, 0), j1 = std::min((tj + 1) * kTile + 1, cells);
+      double du = 0.0, dv = 0.0, lo = at(i0, j0), hi = lo;
+      for (int j = j0; j <= j1; ++j) {
+        for (int i = i0; i <= i1; ++i) {
+          const double z = at(i, j);
+          lo = std::min(lo, z);
+          hi = std::max(hi, z);
+          if (i < i1) du = std::max(du, std::abs(at(i + 1, j) - z));
+          if (j < j1) dv = std::max(dv, std::abs(at(i, j + 1) - z));
+        }
+      }
+      const double lu = 2.5 * du / cell, lv = 2.5 * dv / cell;
+      const double middle = 0.5 * (lo + hi), half = 0.5 * (hi - lo) * 1.5625;
+      const double pad = 1e-6 * std::max({std::abs(lo), std::abs(hi), 1.0});
+      // Rounded outwards: a bound a float ulp short is no bound.
+      pool.push_back(static_cast<float>(std::sqrt(lu * lu + lv * lv) * (1.0 + 1e-5)) *
+                     (1.0f + 1e-6f));
+      pool.push_back(static_cast<float>(middle - half - pad));
+      pool.push_back(static_cast<float>(middle + half + pad));
+    }
+  }
+}
+
+/// Bounds over the query box from the tiles it may touch (points outside the square read the
+/// clamped edge: the edge tiles).
+NodeBounds erosion_bounds(const float* params, const BoundsQuery& query) {
+  const Box2 square = stored_box(params + kBox);
+  const auto table = static_cast<std::size_t>(params[kTable]);
+  const auto tile = static_cast<int>(params[table]);
+  const auto tiles = static_cast<int>(params[table + 1]);
+  const double cells = params[table + 2];
+  const float* entries = params + table + 3;
+  const double side = static_cast<double>(square.hi.x) - square.lo.x;
+  const auto index = [&](double offset) {  // a cell index, one cell of slack either way
+    const double c = std::floor(offset / side * cells);
+    return std::clamp(c, 0.0, cells - 1.0);
+  };
+  const Box2& q = query.box;
+  const double c0 = index(static_cast<double>(q.lo.x) - square.lo.x) - 1.0;
+  const double c1 = index(static_cast<double>(q.hi.x) - square.lo.x) + 1.0;
+  const double r0 = index(static_cast<double>(square.hi.y) - q.hi.y) - 1.0;  // rows from north
+  const double r1 = index(static_cast<double>(square.hi.y) - q.lo.y) + 1.0;
+  const auto tile_of = [&](double c) {
+    return std::clamp(static_cast<int>(std::max(c, 0.0)) / tile, 0, tiles - 1);
+  };
+  const int t0 = tile_of(c0), t1 = tile_of(c1), s0 = tile_of(r0), s1 = tile_of(r1);
+  float slope = 0.0f;
+  Interval range{INFINITY, -INFINITY};
+  for (int tj = s0; tj <= s1; ++tj) {
+    for (int ti = t0; ti <= t1; ++ti) {
+      const float* e = entries + kTileFloats * static_cast<std::size_t>(tj * tiles + ti);
+      slope = std::max(slope, e[0]);
+      range = {std::min(range.lo, e[1]), std::max(range.hi, e[2])};
+    }
+  }
+  NodeBounds b = image_node_type().kernels.leaf_bounds(params, query);
+  b.elevation = range;
+  b.elevation_lipschitz = std::min(b.elevation_lipschitz, slope);
+  return b;
 }
 
 /// Nodes of a subtree with references expanded (a shared subtree counts once per use).
@@ -156,6 +245,7 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
     flat.width = flat.height = 2;
     flat.samples.assign(4, context.base_elevation);
     out.pool = pack_image_on_quad(Heightfield::create(flat, hp).value(), *quad);
+    pack_local_bounds(flat.samples, 2, static_cast<double>(hi_x) - lo_x, out.pool);
     return out;
   }
   std::string content =
@@ -190,6 +280,7 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
   Result<Heightfield> field = Heightfield::create(raster, hp);
   if (!field) return Error{field.error().message, reader.pointer(), ErrorKind::internal};
   out.pool = pack_image_on_quad(*field, *quad);
+  pack_local_bounds(raster.samples, resolution, static_cast<double>(hi_x) - lo_x, out.pool);
   if (BakeCache* cache = context.options->bake_cache) {
     cache->insert(key, std::make_shared<const std::vector<float>>(out.pool));
   }
@@ -215,7 +306,9 @@ const NodeType& erosion_node_type() {
           "its child shaped by rivers: stream-power incision with uplift, hillslope "
           "diffusion, a talus slope and depression deposits on a grid over a square",
       .parse = parse_erosion,
-      .kernels = image_node_type().kernels,
+      .kernels = {.leaf = image_node_type().kernels.leaf,
+                  .leaf_bounds = erosion_bounds,
+                  .varies_with_spacing = never_varies_with_spacing},
       .example_json = R"({"type": "erosion", "resolution": 48, "iterations": 6,
  "children": [{"type": "disc", "center": [0, 0], "radius": 600, "elevation": 300,
    "noise": {"kind": "ridged", "amplitude": 200, "wavelength": 400, "octaves": 4, "seed": 3}}]})",
