@@ -22,6 +22,9 @@ server::App& app() {
     config.data_dir = dir.string();
     config.scenes_dir = TERRAIN_SOURCE_DIR "/config/scenes";
     config.write_token = "token";
+    // Small erosions only: a mutated scene never spends seconds of the run (the eroded example
+    // scenes are refused when loaded, which is fuzzed too).
+    config.erosion_work = std::int64_t{1} << 18;
     auto store = server::open_sqlite_store(config.data_dir);
     auto* a = new server::App(config, std::move(store).value());
     (void)a->seed_examples();

@@ -64,6 +64,7 @@ terrain::Result<std::shared_ptr<const terrain::Scene>, terrain::Error> App::pars
   if (source == SceneSource::stored) {
     options.limits.max_name_bytes = std::numeric_limits<std::size_t>::max();
   }
+  options.limits.max_erosion_work = config_.erosion_work;
   options.bake = source != SceneSource::unbaked;
   options.bake_cache = &bake_cache_;
   // Every image node packs its own copy of its pixels into the program, so the bound counts
@@ -146,6 +147,11 @@ terrain::Result<LoadedVersion, Response> App::load_version(const Request& reques
   terrain::Result<LoadedVersion, terrain::Error> compiled =
       compile_scene(version.canonical_json, SceneSource::stored);
   if (!compiled) {
+    // Beyond a limit configured since it was stored (erosion work): 422, as its write would be.
+    if (compiled.error().kind == terrain::ErrorKind::unsupported) {
+      return problem(request, http::status::unprocessable_entity, "Stored scene too costly",
+                     compiled.error().message, compiled.error().pointer);
+    }
     return problem(request, http::status::internal_server_error, "Stored scene unreadable",
                    compiled.error().message, compiled.error().pointer);
   }

@@ -126,6 +126,10 @@ const std::vector<Option>& options() {
       {"limits.scene_image_pixels", "--scene-image-pixels", "TERRAIN_SCENE_IMAGE_PIXELS",
        &Config::scene_image_pixels, 1, kBig,
        "decoded pixels of the distinct images one scene may use"},
+      {"limits.erosion_work", "--erosion-work", "TERRAIN_EROSION_WORK", &Config::erosion_work, 0,
+       kBig,
+       "cell-steps the erosion nodes of one scene may run (resolution² × steps over their grids), "
+       "else 422"},
       {"live.max_message_bytes", "--live-max-message-bytes", "TERRAIN_LIVE_MAX_MESSAGE_BYTES",
        &Config::live_max_message_bytes, 1024, kBig, "largest live message (else close 1009)"},
       {"live.handshake_timeout_ms", "--live-handshake-timeout-ms",

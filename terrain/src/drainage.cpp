@@ -8,20 +8,10 @@
 #include <queue>
 #include <string>
 
+#include "flood_entry.hpp"
+
 namespace terrain {
 namespace {
-
-/// A flood queue entry: lowest value first, then the earliest pushed (the sequence number is
-/// unique, so the order is total and does not depend on the heap's implementation).
-struct FloodEntry {
-  double value = 0.0;
-  std::uint64_t sequence = 0;
-  std::int32_t cell = 0;
-  bool operator>(const FloodEntry& other) const {
-    if (value != other.value) return value > other.value;
-    return sequence > other.sequence;
-  }
-};
 
 Status validate(const ElevationGrid& grid) {
   if (grid.width < 1 || grid.width > kMaxGridSide) {

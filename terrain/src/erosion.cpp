@@ -9,6 +9,8 @@
 #include <queue>
 #include <string>
 
+#include "flood_entry.hpp"
+
 namespace terrain {
 namespace {
 
@@ -91,17 +93,6 @@ std::vector<double> resample(std::span<const double> src, int sw, int sh, int dw
   return out;
 }
 
-/// A flood queue entry: lowest value first, then the earliest pushed.
-struct FloodEntry {
-  double value = 0.0;
-  std::uint32_t sequence = 0;
-  std::int32_t cell = 0;
-  bool operator>(const FloodEntry& other) const {
-    if (value != other.value) return value > other.value;
-    return sequence > other.sequence;
-  }
-};
-
 /// One grid of the coarse-to-fine solve: heights in metres, lengths relative to the side L.
 class Solver {
  public:
@@ -155,7 +146,7 @@ class Solver {
     std::priority_queue<FloodEntry, std::vector<FloodEntry>, std::greater<>> open;
     std::vector<std::int32_t> pit;
     std::size_t pit_head = 0;
-    std::uint32_t sequence = 0;
+    std::uint64_t sequence = 0;
     for (std::size_t c = 0; c < n_; ++c) {
       if (outlet[c] == 0) continue;
       closed[c] = 1;

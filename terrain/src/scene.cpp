@@ -34,18 +34,35 @@ std::uint32_t ParseContext::noise_seed(std::int64_t node_seed) const {
   return noise::hash(scene_seed, static_cast<std::uint32_t>(node_seed));
 }
 
-std::shared_ptr<const std::vector<float>> BakeCache::find(const std::string& key) {
+BakeCache::Grid BakeCache::get_or_make(const std::string& key, const std::function<Grid()>& make) {
+  {
+    std::unique_lock lock(mutex_);
+    made_.wait(lock, [&] { return !in_flight_.contains(key); });
+    if (auto it = entries_.find(key); it != entries_.end()) {
+      it->second.second = ++clock_;
+      return it->second.first;
+    }
+    in_flight_.insert(key);
+  }
+  Grid grid;
+  try {
+    grid = make();
+  } catch (...) {
+    std::lock_guard lock(mutex_);
+    in_flight_.erase(key);
+    made_.notify_all();
+    throw;
+  }
   std::lock_guard lock(mutex_);
-  auto it = entries_.find(key);
-  if (it == entries_.end()) return nullptr;
-  it->second.second = ++clock_;
-  return it->second.first;
+  in_flight_.erase(key);
+  if (grid) insert(key, grid);
+  made_.notify_all();
+  return grid;
 }
 
-void BakeCache::insert(const std::string& key, std::shared_ptr<const std::vector<float>> grid) {
+void BakeCache::insert(const std::string& key, Grid grid) {
   const std::size_t size = grid->size() * sizeof(float);
   if (size > max_bytes_) return;
-  std::lock_guard lock(mutex_);
   auto [it, inserted] = entries_.try_emplace(key, std::move(grid), ++clock_);
   if (!inserted) return;
   bytes_ += size;

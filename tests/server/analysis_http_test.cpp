@@ -11,38 +11,10 @@
 namespace http_test {
 namespace {
 
-class HttpAnalysis : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    dir_ = std::make_unique<TempDir>("analysis");
-    try {
-      server_ = std::make_unique<ServerProcess>(dir_->path() / "data",
-                                                std::vector<std::string>{"--write-token", kToken});
-    } catch (const std::exception& e) {
-      startup_error_ = e.what();
-    }
-  }
-  static void TearDownTestSuite() {
-    if (server_) server_->stop();
-    server_.reset();
-    dir_.reset();
-  }
-  void SetUp() override {
-    if (!server_) GTEST_FAIL() << "terrain-server did not start: " << startup_error_;
-    port_ = server_->port();
-  }
-  Response get(std::string_view target, const Headers& headers = {}) const {
-    return http_test::get(port_, target, headers);
-  }
-  Response fetch(std::string_view method, std::string_view target, const Headers& headers = {},
-                 std::string_view body = {}) const {
-    return http_test::fetch(port_, method, target, headers, body);
-  }
-
-  static inline std::unique_ptr<TempDir> dir_;
-  static inline std::unique_ptr<ServerProcess> server_;
-  static inline std::string startup_error_;
-  int port_ = 0;
+class HttpAnalysis : public SharedServerTest<HttpAnalysis> {
+ public:
+  static constexpr const char* kFolder = "analysis";
+  static std::vector<std::string> server_arguments() { return {"--write-token", kToken}; }
 };
 
 std::string eroded_scene(int resolution, int iterations) {

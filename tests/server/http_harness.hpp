@@ -16,6 +16,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <gtest/gtest.h>
+
 #include <boost/asio/buffer.hpp>
 #include <boost/beast/http.hpp>
 
@@ -447,5 +449,42 @@ inline std::string disc_scene(double elevation, const std::string& name = "Test 
 inline std::string etag_of(const std::string& s) {
   return "\"" + s + "\"";
 }
+
+/// A suite whose tests share one server: started before its first test, in a folder of its own
+/// (`Suite::kFolder`) with `Suite::server_arguments()`, stopped after its last; each test fails
+/// at once when it did not start.
+template <class Suite>
+class SharedServerTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = std::make_unique<TempDir>(Suite::kFolder);
+    try {
+      server_ = std::make_unique<ServerProcess>(dir_->path() / "data", Suite::server_arguments());
+    } catch (const std::exception& e) {
+      startup_error_ = e.what();
+    }
+  }
+  static void TearDownTestSuite() {
+    if (server_) server_->stop();
+    server_.reset();
+    dir_.reset();
+  }
+  void SetUp() override {
+    if (!server_) GTEST_FAIL() << "terrain-server did not start: " << startup_error_;
+    port_ = server_->port();
+  }
+  Response get(std::string_view target, const Headers& headers = {}) const {
+    return http_test::get(port_, target, headers);
+  }
+  Response fetch(std::string_view method, std::string_view target, const Headers& headers = {},
+                 std::string_view body = {}) const {
+    return http_test::fetch(port_, method, target, headers, body);
+  }
+
+  static inline std::unique_ptr<TempDir> dir_;
+  static inline std::unique_ptr<ServerProcess> server_;
+  static inline std::string startup_error_;
+  int port_ = 0;
+};
 
 }  // namespace http_test

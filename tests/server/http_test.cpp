@@ -22,35 +22,14 @@ constexpr const char* kImmutable = "public, max-age=31536000, immutable";
 constexpr const char* kQuantizedMeshWithExtensions =
     "application/vnd.quantized-mesh;extensions=octvertexnormals-watermask-metadata";
 
-class HttpApi : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    dir_ = std::make_unique<TempDir>("api");
-    try {
-      server_ = std::make_unique<ServerProcess>(
-          dir_->path() / "data",
-          std::vector<std::string>{"--write-token", kToken, "--cors-origins", "https://a.example"});
-    } catch (const std::exception& e) {
-      startup_error_ = e.what();
-    }
-  }
-  static void TearDownTestSuite() {
-    if (server_) server_->stop();
-    server_.reset();
-    dir_.reset();
-  }
-  void SetUp() override {
-    if (!server_) GTEST_FAIL() << "terrain-server did not start: " << startup_error_;
-    port_ = server_->port();
+class HttpApi : public SharedServerTest<HttpApi> {
+ public:
+  static constexpr const char* kFolder = "api";
+  static std::vector<std::string> server_arguments() {
+    return {"--write-token", kToken, "--cors-origins", "https://a.example"};
   }
 
-  Response get(std::string_view target, const Headers& headers = {}) const {
-    return http_test::get(port_, target, headers);
-  }
-  Response fetch(std::string_view method, std::string_view target, const Headers& headers = {},
-                 std::string_view body = {}) const {
-    return http_test::fetch(port_, method, target, headers, body);
-  }
+ protected:
   /// Creates a scene with this id; fails the test unless the server answers 201.
   void create(const std::string& id, double elevation = 100.0) const {
     const Response r =
@@ -62,11 +41,6 @@ class HttpApi : public ::testing::Test {
     EXPECT_EQ(r.result_int(), 200u) << r.body();
     return body_json(r)["versions"].size();
   }
-
-  static inline std::unique_ptr<TempDir> dir_;
-  static inline std::unique_ptr<ServerProcess> server_;
-  static inline std::string startup_error_;
-  int port_ = 0;
 };
 
 void expect_problem(const Response& r, unsigned status, const std::string& pointer) {

@@ -48,41 +48,24 @@ void expect_problem(const Response& r, unsigned status, const std::string& point
   }
 }
 
-class HttpPlanets : public ::testing::Test {
- protected:
+class HttpPlanets : public SharedServerTest<HttpPlanets> {
+ public:
+  static constexpr const char* kFolder = "planets";
+  static std::vector<std::string> server_arguments() {
+    return {"--write-token", kToken, "--cors-origins", "https://a.example"};
+  }
   static void SetUpTestSuite() {
-    dir_ = std::make_unique<TempDir>("planets");
-    try {
-      server_ = std::make_unique<ServerProcess>(
-          dir_->path() / "data",
-          std::vector<std::string>{"--write-token", kToken, "--cors-origins", "https://a.example"});
-    } catch (const std::exception& e) {
-      startup_error_ = e.what();
-    }
+    SharedServerTest::SetUpTestSuite();
     default_id_ = planet::planet_id(default_definition());
   }
-  static void TearDownTestSuite() {
-    if (server_) server_->stop();
-    server_.reset();
-    dir_.reset();
-  }
-  void SetUp() override {
-    if (!server_) GTEST_FAIL() << "terrain-server did not start: " << startup_error_;
-    port_ = server_->port();
-  }
-  Response get(std::string_view target, const Headers& headers = {}) const {
-    return http_test::get(port_, target, headers);
-  }
+
+ protected:
   Response post(std::string_view body, const Headers& headers = with_token()) const {
     return http_test::fetch(port_, "POST", "/api/v1/planets", headers, body);
   }
   std::size_t planet_count() const { return body_json(get("/api/v1/planets"))["planets"].size(); }
 
-  static inline std::unique_ptr<TempDir> dir_;
-  static inline std::unique_ptr<ServerProcess> server_;
-  static inline std::string startup_error_;
   static inline std::string default_id_;
-  int port_ = 0;
 };
 
 TEST_F(HttpPlanets, ListHoldsTheBuiltInDefaultPlanet) {
@@ -345,7 +328,8 @@ TEST_F(HttpPlanets, SampleAtALevelOfDetailIsTheTilesHeight) {
   const std::string p = "/api/v1/planets/" + default_id_ + "/sample?lat=12.5&lon=33.25";
   const json coarse = body_json(get(p + "&lod=5000"));
   EXPECT_EQ(coarse["ground"].get<double>(), sampler.sample(12.5, 33.25, 5000.0).ground);
-  EXPECT_EQ(body_json(get(p + "&lod=0"))["ground"].get<double>(), sampler.sample(12.5, 33.25).ground);
+  EXPECT_EQ(body_json(get(p + "&lod=0"))["ground"].get<double>(),
+            sampler.sample(12.5, 33.25).ground);
   expect_problem(get(p + "&lod=-1"), 400, "/lod");
   expect_problem(get(p + "&lod=far"), 400, "/lod");
 }

@@ -3,6 +3,8 @@
 // their field.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -14,6 +16,7 @@
 #include "terrain/erosion.hpp"
 #include "terrain/evaluate.hpp"
 #include "terrain/geomorphometry.hpp"
+#include "terrain/program.hpp"
 #include "terrain/scene.hpp"
 
 namespace terrain {
@@ -262,6 +265,87 @@ TEST(ErosionNodeRefuses, ResolutionAndIterationsOutOfRange) {
     ASSERT_FALSE(scene.ok()) << field << " = " << value;
     EXPECT_EQ(scene.error().pointer, "/root/" + field);
   }
+}
+
+}  // namespace
+}  // namespace terrain
+
+namespace terrain {
+namespace {
+
+TEST(BakeCache, MakesAGridOnceWhileManyThreadsAskForIt) {
+  BakeCache cache(1 << 20);
+  std::atomic<int> made{0};
+  const auto make = [&] {
+    ++made;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    return std::make_shared<const std::vector<float>>(std::vector<float>(16, 1.0f));
+  };
+  std::vector<BakeCache::Grid> got(4);
+  std::vector<std::thread> threads;
+  for (std::size_t t = 0; t < got.size(); ++t) {
+    threads.emplace_back([&, t] { got[t] = cache.get_or_make("k", make); });
+  }
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(made.load(), 1);
+  for (const BakeCache::Grid& g : got) EXPECT_EQ(g, got[0]);
+}
+
+TEST(BakeCache, KeepsWithinItsBytesDroppingTheLeastRecentlyUsed) {
+  BakeCache cache(3 * 100 * sizeof(float));
+  int made = 0;
+  const auto grid = [&] {
+    ++made;
+    return std::make_shared<const std::vector<float>>(std::vector<float>(100, 0.0f));
+  };
+  (void)cache.get_or_make("a", grid);
+  (void)cache.get_or_make("b", grid);
+  (void)cache.get_or_make("c", grid);
+  (void)cache.get_or_make("a", grid);  // used again: b is now the oldest
+  (void)cache.get_or_make("d", grid);  // b goes
+  EXPECT_EQ(made, 4);
+  EXPECT_LE(cache.bytes(), 3 * 100 * sizeof(float));
+  (void)cache.get_or_make("a", grid);
+  EXPECT_EQ(made, 4);
+  (void)cache.get_or_make("b", grid);
+  EXPECT_EQ(made, 5);
+  // A failure is not kept: the next caller makes it again.
+  EXPECT_EQ(cache.get_or_make("e", [] { return BakeCache::Grid{}; }), nullptr);
+  (void)cache.get_or_make("e", grid);
+  EXPECT_EQ(made, 6);
+}
+
+TEST(ErosionNode, ParsedAgainWithTheCacheGivesTheSameGridWithoutErodingAgain) {
+  BakeCache cache(64 << 20);
+  ParseOptions options;
+  options.bake_cache = &cache;
+  Result<Scene> first = parse_scene_text(kErodedScene, options);
+  ASSERT_TRUE(first.ok());
+  const std::size_t kept = cache.bytes();
+  EXPECT_GT(kept, 128u * 128u * sizeof(float));
+  Result<Scene> second = parse_scene_text(first->canonical_text(), options);
+  ASSERT_TRUE(second.ok());
+  EXPECT_EQ(cache.bytes(), kept);  // found, not made again
+  EXPECT_EQ(first->root->params.pool, second->root->params.pool);
+  Result<Scene> uncached = parse_scene_text(kErodedScene);
+  ASSERT_TRUE(uncached.ok());
+  EXPECT_EQ(first->root->params.pool, uncached->root->params.pool);
+}
+
+TEST(ErosionNode, ParsedWithoutBakingHasItsHashButDoesNotCompile) {
+  ParseOptions options;
+  options.bake = false;
+  Result<Scene> unbaked = parse_scene_text(kErodedScene, options);
+  ASSERT_TRUE(unbaked.ok());
+  Result<Scene> baked = parse_scene_text(kErodedScene);
+  ASSERT_TRUE(baked.ok());
+  EXPECT_FALSE(unbaked->baked);
+  EXPECT_TRUE(baked->baked);
+  EXPECT_EQ(unbaked->hash, baked->hash);
+  EXPECT_EQ(unbaked->canonical_text(), baked->canonical_text());
+  Result<Program> program = compile(*unbaked);
+  ASSERT_FALSE(program.ok());
+  EXPECT_EQ(program.error().kind, ErrorKind::internal);
 }
 
 }  // namespace

@@ -2,12 +2,14 @@
 // pointer, canonical serialisation, and the content hash that identifies a scene version.
 #pragma once
 
+#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <span>
 #include <string>
 #include <string_view>
@@ -57,23 +59,28 @@ struct DeclaredNumber {
 
 /// Grids that nodes bake while a scene is parsed (erosion), kept by the content hash of all that
 /// made them, so that parsing a scene again (a new version that left the subtree alone, the
-/// load after a store) does not redo the work. Thread-safe; at most `max_bytes` of grids, the
-/// least recently used dropped first.
+/// load after a store) does not redo the work. Thread-safe and single-flight: while one thread
+/// makes a grid, others asking for it wait for that one. At most `max_bytes` of grids are kept,
+/// the least recently used dropped first.
 class BakeCache {
  public:
+  using Grid = std::shared_ptr<const std::vector<float>>;
   explicit BakeCache(std::size_t max_bytes) : max_bytes_(max_bytes) {}
-  std::shared_ptr<const std::vector<float>> find(const std::string& key);
-  void insert(const std::string& key, std::shared_ptr<const std::vector<float>> grid);
+  /// The grid of `key`, made by `make` (on this thread) when no one has it; null when `make`
+  /// gives null (a failure, not kept: the next caller tries again).
+  Grid get_or_make(const std::string& key, const std::function<Grid()>& make);
   std::size_t bytes() const;
 
  private:
+  void insert(const std::string& key, Grid grid);  // mutex_ held
+
   mutable std::mutex mutex_;
+  std::condition_variable made_;
+  std::set<std::string, std::less<>> in_flight_;
   std::size_t max_bytes_;
   std::size_t bytes_ = 0;
   std::uint64_t clock_ = 0;
-  std::map<std::string, std::pair<std::shared_ptr<const std::vector<float>>, std::uint64_t>,
-           std::less<>>
-      entries_;
+  std::map<std::string, std::pair<Grid, std::uint64_t>, std::less<>> entries_;
 };
 
 struct ParseOptions {

@@ -248,42 +248,45 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
     pack_local_bounds(flat.samples, 2, static_cast<double>(hi_x) - lo_x, out.pool);
     return out;
   }
-  std::string content =
-      "erosion/1 " + out.canonical.dump() + " base " + std::to_string(context.base_elevation) + " ";
-  append_content(child, content);
-  const std::string key = sha256_hex(content);
-  if (BakeCache* cache = context.options->bake_cache) {
-    if (auto grid = cache->find(key)) {
-      out.pool = *grid;
-      return out;
+  // The grid: sampled, eroded and packed with its local bounds. Erosion and packing fail only
+  // on what the parameters above exclude, so a failure here is this module's (internal).
+  const auto bake = [&]() -> BakeCache::Grid {
+    Raster raster;
+    raster.width = raster.height = resolution;
+    raster.samples = sample_child(child, context.base_elevation, {lo_x, lo_y}, step, resolution);
+    // The solver's row 0 is the south row: flip the raster's rows in and out.
+    std::vector<float> south_up(raster.samples.size());
+    const auto row = static_cast<std::size_t>(resolution);
+    for (std::size_t j = 0; j < row; ++j) {
+      std::copy_n(raster.samples.begin() + static_cast<std::ptrdiff_t>(j * row), row,
+                  south_up.begin() + static_cast<std::ptrdiff_t>((row - 1 - j) * row));
     }
-  }
-
-  const Vec2 origin{lo_x, lo_y};
-  Raster raster;
-  raster.width = raster.height = resolution;
-  raster.samples = sample_child(child, context.base_elevation, origin, step, resolution);
-  // The solver's row 0 is the south row: flip the raster's rows in and out.
-  std::vector<float> south_up(raster.samples.size());
-  const auto row = static_cast<std::size_t>(resolution);
-  for (std::size_t j = 0; j < row; ++j) {
-    std::copy_n(raster.samples.begin() + static_cast<std::ptrdiff_t>(j * row), row,
-                south_up.begin() + static_cast<std::ptrdiff_t>((row - 1 - j) * row));
-  }
-  Result<std::vector<float>> eroded =
-      erode({resolution, resolution, step, south_up, std::nullopt, {}}, p);
-  if (!eroded) return Error{eroded.error().message, reader.pointer() + eroded.error().pointer};
-  for (std::size_t j = 0; j < row; ++j) {
-    std::copy_n(eroded->begin() + static_cast<std::ptrdiff_t>(j * row), row,
-                raster.samples.begin() + static_cast<std::ptrdiff_t>((row - 1 - j) * row));
-  }
-  Result<Heightfield> field = Heightfield::create(raster, hp);
-  if (!field) return Error{field.error().message, reader.pointer(), ErrorKind::internal};
-  out.pool = pack_image_on_quad(*field, *quad);
-  pack_local_bounds(raster.samples, resolution, static_cast<double>(hi_x) - lo_x, out.pool);
+    Result<std::vector<float>> eroded =
+        erode({resolution, resolution, step, south_up, std::nullopt, {}}, p);
+    if (!eroded) return nullptr;
+    for (std::size_t j = 0; j < row; ++j) {
+      std::copy_n(eroded->begin() + static_cast<std::ptrdiff_t>(j * row), row,
+                  raster.samples.begin() + static_cast<std::ptrdiff_t>((row - 1 - j) * row));
+    }
+    Result<Heightfield> field = Heightfield::create(raster, hp);
+    if (!field) return nullptr;
+    std::vector<float> pool = pack_image_on_quad(*field, *quad);
+    pack_local_bounds(raster.samples, resolution, static_cast<double>(hi_x) - lo_x, pool);
+    return std::make_shared<const std::vector<float>>(std::move(pool));
+  };
+  BakeCache::Grid grid;
   if (BakeCache* cache = context.options->bake_cache) {
-    cache->insert(key, std::make_shared<const std::vector<float>>(out.pool));
+    std::string content = "erosion/1 " + out.canonical.dump() + " base " +
+                          std::to_string(context.base_elevation) + " ";
+    append_content(child, content);
+    grid = cache->get_or_make(sha256_hex(content), bake);
+  } else {
+    grid = bake();
   }
+  if (!grid) {
+    return Error{"the erosion grid could not be made", reader.pointer(), ErrorKind::internal};
+  }
+  out.pool = *grid;
   return out;
 }
 
