@@ -343,7 +343,7 @@ Field contour_leaf(uint at, vec2 p) {
 
 // ---------------------------------------------------------------------------------------------
 // image (type 4): 0 λ_f, 1 λ_α, 2 h_lo, 3 h_hi, 4..7 box, 8 mapping record, 9 heightfield record
-// (offsets relative to the node), 10 mapping (0 quad, 1 curve), 11 width, 12 curve length
+// (offsets relative to the node), 10 mapping (0 quad, 1 curve, 2 the box), 11 width, 12 curve length
 // (nodes/image.cpp). The heightfield and quad functions are line-by-line ports of
 // terrain/src/heightfield.cpp. Image samples are read through fetch_image(i), i being the
 // sample's pool index: a prelude that keeps images apart (a WebGL2 texture) defines
@@ -607,9 +607,9 @@ UvMap quad_inverse(uint base, vec2 p) {
 Field image_leaf(uint at, vec2 p) {
   uint mapping = at + uint(fetch_pool(at + 8u));
   uint field = at + uint(fetch_pool(at + 9u));
-  bool along_curve = fetch_pool(at + 10u) != 0.0;
+  float mode = fetch_pool(at + 10u);
   UvMap m;
-  if (along_curve) {
+  if (mode == 1.0) {
     // u along the curve, v across it: row 0 (v = 0) on the left of the direction of travel.
     float width = fetch_pool(at + 11u);
     float len = fetch_pool(at + 12u);
@@ -621,6 +621,15 @@ Field image_leaf(uint at, vec2 p) {
     TERRAIN_PRECISE vec2 du = q.grad_s * inv_length;
     TERRAIN_PRECISE vec2 dv = q.grad_d * -inv_width;
     m = UvMap(u, v, du, dv);
+  } else if (mode == 2.0) {
+    // The support box itself (nodes/image.cpp box_map): v = 0 on its north edge.
+    vec4 box = vec4(fetch_pool(at + 4u), fetch_pool(at + 5u), fetch_pool(at + 6u),
+                    fetch_pool(at + 7u));
+    TERRAIN_PRECISE float inv_width = 1.0 / (box.z - box.x);
+    TERRAIN_PRECISE float inv_height = 1.0 / (box.w - box.y);
+    TERRAIN_PRECISE float u = (p.x - box.x) * inv_width;
+    TERRAIN_PRECISE float v = (box.w - p.y) * inv_height;
+    m = UvMap(u, v, vec2(inv_width, 0.0), vec2(0.0, -inv_height));
   } else {
     m = quad_inverse(mapping, p);
   }

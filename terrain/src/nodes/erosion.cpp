@@ -30,11 +30,12 @@ void append_content(const Node& node, std::string& out) {
   for (const NodePtr& child : node.children) append_content(*child, out);
 }
 
-// The pool is an image primitive's on a quad (nodes/image.cpp: 0 λ_f, 1 λ_α, 2 h_lo, 3 h_hi,
-// 4..7 box, 8 mapping, 9 heightfield, 10 mode 0), whose curve-only slot 12 here holds the offset
-// of a table of local bounds: tile side in cells, tiles per side, cells per side, then per tile
-// of kTile × kTile cells its slope bound in metres per metre and its height range.
-constexpr int kBox = 4, kTable = 12;
+// The pool is an image primitive's (nodes/image.cpp: 0 λ_f, 1 λ_α, 2 h_lo, 3 h_hi, 4..7 box,
+// 8 mapping, 9 heightfield, 10 mapping mode: 2, the box itself), whose curve-only slot 12 holds the
+// offset of a table of local bounds: tile side in cells, tiles per side, cells per side, then per
+// tile of kTile × kTile cells its slope bound in metres per metre and its height range.
+constexpr int kBox = 4, kMode = 10, kTable = 12;
+constexpr float kOnItsBox = 2.0f;  // the image's mapping mode 2: its support box
 constexpr int kTile = 8;
 constexpr std::size_t kTileFloats = 3;
 
@@ -245,6 +246,7 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
     flat.width = flat.height = 2;
     flat.samples.assign(4, context.base_elevation);
     out.pool = pack_image_on_quad(Heightfield::create(flat, hp).value(), *quad);
+    out.pool[kMode] = kOnItsBox;
     pack_local_bounds(flat.samples, 2, static_cast<double>(hi_x) - lo_x, out.pool);
     return out;
   }
@@ -271,6 +273,7 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
     Result<Heightfield> field = Heightfield::create(raster, hp);
     if (!field) return nullptr;
     std::vector<float> pool = pack_image_on_quad(*field, *quad);
+    pool[kMode] = kOnItsBox;  // the square is axis-aligned: u, v are affine in x, y
     pack_local_bounds(raster.samples, resolution, static_cast<double>(hi_x) - lo_x, pool);
     return std::make_shared<const std::vector<float>>(std::move(pool));
   };

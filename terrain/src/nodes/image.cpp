@@ -15,7 +15,8 @@ namespace {
 
 // Pool: 0 λ_f, 1 λ_α, 2 h_lo, 3 h_hi, 4..7 support box, 8 mapping record offset (a quad, or a
 // polyline), 9 heightfield record offset (both relative to the node's first float), 10 mapping
-// (0 quad, 1 curve), 11 width across the curve, 12 curve length; then the two records.
+// (0 quad, 1 curve, 2 the support box itself, axis-aligned: what the erosion node packs), 11 width
+// across the curve, 12 curve length; then the two records.
 constexpr int kLipschitz = 0, kWeightLipschitz = 1, kLo = 2, kHi = 3, kBox = 4, kMapping = 8,
               kField = 9, kMode = 10, kWidth = 11, kLength = 12;
 
@@ -124,10 +125,25 @@ Result<NodeParams> parse_image(FieldReader& reader, ParseContext& context) {
   return out;
 }
 
+// (u, v) on an axis-aligned box (lo.x, lo.y, hi.x, hi.y), v = 0 on its north edge. Outside it u
+// and v leave [0, 1], where the heightfield clamps them and its border weight is 0: the same as
+// QuadMap's nearest-point extension, which for a rectangle is clamping.
+UvMap box_map(const float* box, Vec2 p) {
+  const float inv_width = 1.0f / (box[2] - box[0]);
+  const float inv_height = 1.0f / (box[3] - box[1]);
+  UvMap m;
+  m.u = (p.x - box[0]) * inv_width;
+  m.v = (box[3] - p.y) * inv_height;
+  m.du = {inv_width, 0.0f};
+  m.dv = {0.0f, -inv_height};
+  return m;
+}
+
 void image_leaf(const float* params, const PointBlock& points, FieldBlock& out) {
   const auto mapping = static_cast<std::size_t>(params[kMapping]);
   const auto field = static_cast<std::size_t>(params[kField]);
-  const bool along_curve = params[kMode] != 0.0f;
+  const bool along_curve = params[kMode] == 1.0f;
+  const bool on_box = params[kMode] == 2.0f;
   const float inv_width = along_curve ? 1.0f / params[kWidth] : 0.0f;
   const float inv_length = along_curve && params[kLength] > 0.0f ? 1.0f / params[kLength] : 0.0f;
   for (int i = 0; i < points.count; ++i) {
@@ -140,6 +156,8 @@ void image_leaf(const float* params, const PointBlock& points, FieldBlock& out) 
       m.v = 0.5f - q.signed_distance * inv_width;
       m.du = q.grad_s * inv_length;
       m.dv = q.grad_d * -inv_width;
+    } else if (on_box) {
+      m = box_map(params + kBox, p);
     } else {
       m = quad_inverse(params, mapping, p);
     }
@@ -178,7 +196,7 @@ namespace {
 // quadrangle's corners are coordinates, not counts).
 std::size_t image_loop_iterations(std::span<const float> params) {
   constexpr std::size_t kMappingSteps = 4;
-  if (pool_count(params, kMode) == 0) return kMappingSteps;
+  if (pool_count(params, kMode) != 1) return kMappingSteps;
   const std::size_t mapping = pool_count(params, kMapping);
   const std::span<const float> packed =
       mapping < params.size() ? params.subspan(mapping) : std::span<const float>{};
