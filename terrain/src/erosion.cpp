@@ -112,6 +112,18 @@ class Solver {
   std::vector<float> uplift;         ///< the uplift pattern u in [0, 1]
   std::vector<std::uint8_t> outlet;  ///< fixed cells: the edge and the sea
 
+  /// Outlets: the grid's edge, and cells of `authored` at or below the sea level.
+  void mark_outlets(const std::vector<double>& authored, std::optional<double> sea_level) {
+    outlet.assign(n_, 0);
+    for (int j = 0; j < h_; ++j) {
+      for (int i = 0; i < w_; ++i) {
+        const std::size_t c = at(i, j);
+        const bool edge = i == 0 || j == 0 || i == w_ - 1 || j == h_ - 1;
+        outlet[c] = edge || (sea_level && authored[c] <= *sea_level);
+      }
+    }
+  }
+
   /// Steepest-descent receivers; false when some cell (not an outlet) has no lower neighbour.
   bool route() {
     bool drains = true;
@@ -429,6 +441,7 @@ Result<std::vector<float>> erode(const ElevationGrid& grid, const ErosionParams&
 
   const std::vector<ErosionLevel> levels = erosion_levels(width, height, p.iterations);
   std::vector<double> z;
+  std::vector<double> coarser_authored;  // the input as the coarser grid held it
   int zw = 0, zh = 0;
   double lambda = 0.0;
   for (std::size_t li = levels.size(); li-- > 0;) {
@@ -438,13 +451,9 @@ Result<std::vector<float>> erode(const ElevationGrid& grid, const ErosionParams&
     Solver solver(level.width, level.height, cell_metres, cell_metres / side);
     const std::vector<double> authored = resample(input, width, height, level.width, level.height);
     const std::size_t n = authored.size();
-    solver.outlet.assign(n, 0);
+    solver.mark_outlets(authored, p.sea_level);
     solver.uplift.assign(n, 0.0f);
     for (std::size_t c = 0; c < n; ++c) {
-      const int i = static_cast<int>(c % static_cast<std::size_t>(level.width));
-      const int j = static_cast<int>(c / static_cast<std::size_t>(level.width));
-      const bool edge = i == 0 || j == 0 || i == level.width - 1 || j == level.height - 1;
-      solver.outlet[c] = edge || (p.sea_level && authored[c] <= *p.sea_level);
       const double share = relief > 0.0 ? std::clamp((authored[c] - base) / relief, 0.0, 1.0) : 0.0;
       solver.uplift[c] = static_cast<float>((1.0 - p.uplift) + p.uplift * share);
     }
@@ -455,7 +464,7 @@ Result<std::vector<float>> erode(const ElevationGrid& grid, const ErosionParams&
       // the coarse steps carved stays carved, and what they never saw is there to shape.
       solver.z = resample(z, zw, zh, level.width, level.height);
       const std::vector<double> coarse_input =
-          resample(resample(input, width, height, zw, zh), zw, zh, level.width, level.height);
+          resample(coarser_authored, zw, zh, level.width, level.height);
       for (std::size_t c = 0; c < n; ++c) solver.z[c] += authored[c] - coarse_input[c];
     }
     // Outlets keep the authored heights at every level.
@@ -479,20 +488,16 @@ Result<std::vector<float>> erode(const ElevationGrid& grid, const ErosionParams&
       solver.talus(talus_slope);
     }
     z = std::move(solver.z);
+    coarser_authored = authored;
     zw = level.width;
     zh = level.height;
   }
 
   // The authored relief exactly, then the talus slope again, then drainage in float32.
   Solver last(width, height, grid.cell_size, grid.cell_size / side);
-  last.outlet.assign(input.size(), 0);
-  last.uplift.assign(input.size(), 0.0f);
+  last.mark_outlets(input, p.sea_level);
   double high = base;
   for (std::size_t c = 0; c < input.size(); ++c) {
-    const int i = static_cast<int>(c % static_cast<std::size_t>(width));
-    const int j = static_cast<int>(c / static_cast<std::size_t>(width));
-    last.outlet[c] = i == 0 || j == 0 || i == width - 1 || j == height - 1 ||
-                     (p.sea_level && input[c] <= *p.sea_level);
     if (last.outlet[c] == 0) high = std::max(high, z[c]);
   }
   last.z = std::move(z);

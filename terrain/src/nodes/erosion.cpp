@@ -128,12 +128,12 @@ std::int64_t expanded_nodes(const Node& node) {
 
 /// The child's surface over the square, row 0 north (a raster): α f + (1 − α) base, sampled at
 /// the grid's own level of detail so the grid does not alias finer detail.
-std::vector<float> sample_child(const Node& child, float base_elevation, Vec2 origin, double step,
-                                int side) {
+std::vector<float> sample_child(const Node& child, const NodeBounds& bounds, float base_elevation,
+                                Vec2 origin, double step, int side) {
   Scene scene;
   scene.root = std::shared_ptr<const Node>(std::shared_ptr<const Node>{}, &child);
   scene.base_elevation = base_elevation;
-  scene.bounds = tree_bounds(child, {});
+  scene.bounds = bounds;
   CompileOptions options;
   options.bound_queries = 0;  // the child's global bound is not needed to sample it
   Result<Program> program = compile(scene, options);
@@ -255,7 +255,8 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
   const auto bake = [&]() -> BakeCache::Grid {
     Raster raster;
     raster.width = raster.height = resolution;
-    raster.samples = sample_child(child, context.base_elevation, {lo_x, lo_y}, step, resolution);
+    raster.samples =
+        sample_child(child, child_bounds, context.base_elevation, {lo_x, lo_y}, step, resolution);
     // The solver's row 0 is the south row: flip the raster's rows in and out.
     std::vector<float> south_up(raster.samples.size());
     const auto row = static_cast<std::size_t>(resolution);
