@@ -301,6 +301,39 @@ def coastal_range():
         "root": erosion([shelf, land] + hills, 8000, uplift=0.4, strength=0.5, concavity=0.45, sea_level=0)})
 
 
+def drainage(child, size, **params):
+    return {"type": "drainage", "resolution": 512, "center": [0, 0], "size": size, **params,
+            "children": [child]}
+
+
+def river_lake():
+    """A valley drained by a trunk river and its tributaries, carved as wide and deep as their
+    flow, through a lake held behind a rock sill."""
+    rng = random.Random(44)
+    rim = []
+    for i in range(12):
+        a = math.pi * (-0.1 + 1.2 * i / 11)  # round the north, open to the south
+        x, y = 3200 * math.cos(a), 3000 * math.sin(a) + 400
+        rim.append({"type": "disc", "center": [r1(x), r1(y)], "radius": r1(rng.uniform(1300, 1800)),
+                    "elevation": r1(rng.uniform(800, 1150)),
+                    "noise": {"kind": "fbm", "amplitude": 250, "wavelength": 1300, "octaves": 6,
+                              "seed": 90 + i}})
+    floor = {"type": "disc", "center": [0, 0], "radius": 7000, "elevation": 200,
+             "noise": {"kind": "fbm", "amplitude": 80, "wavelength": 1700, "octaves": 6, "seed": 9}}
+    valley = erosion([floor] + rim, 8000, uplift=0.6, strength=0.3, concavity=0.5)
+    # A glacial basin dug into the trunk's valley behind a rock sill: the drainage keeps it as a
+    # lake, and the trunk leaves it over the sill.
+    basin = {"type": "add", "children": [
+        {"type": "disc", "center": [1500, 100], "radius": 700, "elevation": -80},
+        {"type": "disc", "center": [1500, -650], "radius": 450, "elevation": 35}]}
+    write("river-lake", {
+        "name": "A valley with a trunk river, its tributaries and a lake (erosion, drainage)",
+        "seed": 44, "extent": {"min": [-4000, -4000], "max": [4000, 4000]},
+        "georeference": {"latitude": 45.9, "longitude": 6.9, "heading": 0},
+        "root": drainage({"type": "add", "children": [valley, basin]}, 8000,
+                         channel_area=120000, width=4, depth=0.8, lake_depth=2)})
+
+
 if __name__ == "__main__":
     hills_river()
     craters()
@@ -311,3 +344,4 @@ if __name__ == "__main__":
     alpine_valleys()
     river_basin()
     coastal_range()
+    river_lake()

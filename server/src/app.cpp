@@ -504,6 +504,16 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     const terrain::FieldSample s = evaluator.sample(
         {static_cast<float>(*x), static_cast<float>(*y)}, static_cast<float>(*lod));
     const terrain::NodeBounds& b = evaluator.global_bounds();
+    // The water layer's rule (the water masks'): wet where its weight is at least 0.5 and its
+    // surface lies above the ground.
+    json water = nullptr;
+    if (loaded.source->water) {
+      terrain::Evaluator water_evaluator(*loaded.source->water);
+      const terrain::FieldSample w = water_evaluator.sample(
+          {static_cast<float>(*x), static_cast<float>(*y)}, static_cast<float>(*lod));
+      const bool wet = w.weight >= 0.5f && w.elevation > s.elevation;
+      water = {{"wet", wet}, {"surface", wet ? json(w.elevation) : json(nullptr)}};
+    }
     return finish_json({{"x", *x},
                         {"y", *y},
                         {"lod", *lod},
@@ -511,6 +521,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
                         {"weight", s.weight},
                         {"gradient", {s.elevation_gradient.x, s.elevation_gradient.y}},
                         {"lipschitz", b.elevation_lipschitz},
+                        {"water", water},
                         {"version", loaded.version.version}});
   }
   if (rest.size() == 1 && rest[0] == "layer.json") {

@@ -34,6 +34,10 @@ Status validate(const ElevationGrid& grid) {
     return Error{"must be empty or hold width × height = " + std::to_string(cells) + " flags",
                  "/water"};
   }
+  if (!grid.wet.empty() && grid.wet.size() != static_cast<std::size_t>(cells)) {
+    return Error{"must be empty or hold width × height = " + std::to_string(cells) + " flags",
+                 "/wet"};
+  }
   if (grid.sea_level && !std::isfinite(*grid.sea_level)) {
     return Error{"must be a finite elevation", "/sea_level"};
   }

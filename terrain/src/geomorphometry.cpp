@@ -98,8 +98,12 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
       sum += z;
       lo = std::min(lo, z);
       hi = std::max(hi, z);
-      if (d.filled[c] - z > options.depression_epsilon) ++g.depression_cells;
       g.max_drainage_area = std::max(g.max_drainage_area, d.area[c]);
+      if (!grid.wet.empty() && grid.wet[c] != 0) {
+        ++g.wet_cells;
+        continue;
+      }
+      if (d.filled[c] - z > options.depression_epsilon) ++g.depression_cells;
       if (i == 0 || j == 0 || i == w - 1 || j == h - 1) continue;  // edge cells are outlets
       bool lower = false;
       for (int k = 0; k < 8 && !lower; ++k) {
@@ -113,8 +117,9 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
   }
   if (g.land_cells > 0) {
     const auto land = static_cast<double>(g.land_cells);
-    g.pit_share = static_cast<double>(g.pits) / land;
-    g.closed_depression_share = static_cast<double>(g.depression_cells) / land;
+    const auto dry = static_cast<double>(std::max<std::int64_t>(g.land_cells - g.wet_cells, 1));
+    g.pit_share = static_cast<double>(g.pits) / dry;
+    g.closed_depression_share = static_cast<double>(g.depression_cells) / dry;
     g.min_elevation = lo;
     g.max_elevation = hi;
     g.mean_elevation = sum / land;
@@ -195,6 +200,7 @@ nlohmann::json to_json(const Geomorphometry& g) {
   return {
       {"grid", {{"width", g.width}, {"height", g.height}, {"cell_size_m", g.cell_size}}},
       {"land_cells", g.land_cells},
+      {"wet_cells", g.wet_cells},
       {"pits", {{"count", g.pits}, {"share", g.pit_share}}},
       {"closed_depressions",
        {{"cells", g.depression_cells},

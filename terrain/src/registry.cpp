@@ -9,6 +9,7 @@
 #include "nodes/contour.hpp"
 #include "nodes/curve.hpp"
 #include "nodes/disc.hpp"
+#include "nodes/drainage.hpp"
 #include "nodes/erosion.hpp"
 #include "nodes/image.hpp"
 #include "nodes/lod.hpp"
@@ -21,9 +22,9 @@ namespace terrain {
 
 std::span<const NodeType* const> node_types() {
   static const NodeType* const kTypes[] = {
-      &disc_node_type(),      &curve_node_type(),   &contour_node_type(), &image_node_type(),
-      &erosion_node_type(),   &blend_node_type(),     &replace_node_type(), &add_node_type(),     &lod_node_type(),
-      &transform_node_type(), &warp_node_type(),
+      &disc_node_type(),    &curve_node_type(),    &contour_node_type(),   &image_node_type(),
+      &erosion_node_type(), &drainage_node_type(), &blend_node_type(),     &replace_node_type(),
+      &add_node_type(),     &lod_node_type(),      &transform_node_type(), &warp_node_type(),
   };
   return kTypes;
 }

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "field_reader.hpp"
+#include "nodes/replace.hpp"
 #include "terrain/evaluate.hpp"
 #include "terrain/json_text.hpp"
 #include "terrain/noise.hpp"
@@ -93,7 +94,8 @@ struct ParsedNode {
   NodePtr node;
   nlohmann::json canonical;
   std::int64_t expanded_size = 0;
-  int height = 1;  ///< levels below and including this node, references expanded
+  int height = 1;           ///< levels below and including this node, references expanded
+  bool adds_water = false;  ///< whether a node in it made a water layer (a drainage)
 };
 
 class SceneParser {
@@ -161,6 +163,12 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
                        std::to_string(options_.limits.max_depth) + " levels",
                    pointer};
     }
+    if (out.adds_water && (context_.reshaping_ancestors > 0 || context_.in_water_tree)) {
+      return Error{
+          "refers to a definition holding a drainage, which belongs in the terrain tree "
+          "and not under a transform, warp or erosion",
+          pointer + "/ref"};
+    }
     out.canonical = nlohmann::json{{"ref", name}};
     return out;
   }
@@ -176,6 +184,7 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
                  pointer + "/type"};
   }
 
+  const std::size_t water_layers_before = context_.water_layers.size();
   auto node = std::make_shared<Node>();
   node->type = type;
   nlohmann::json canonical = nlohmann::json::object();
@@ -207,6 +216,10 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
                    pointer + "/children"};
     }
     nlohmann::json canonical_children = nlohmann::json::array();
+    // Transforms and warps move their subtree; primitives with children bake it into a grid.
+    const bool reshapes = type->category == NodeCategory::warp ||
+                          (type->category == NodeCategory::primitive && type->max_children > 0);
+    context_.reshaping_ancestors += reshapes ? 1 : 0;
     for (std::size_t i = 0; i < count; ++i) {
       Result<ParsedNode> child =
           parse_node((*children_it)[i], pointer_join(pointer + "/children", i), depth + 1);
@@ -216,6 +229,7 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
       size += child->expanded_size;
       height = std::max(height, child->height + 1);
     }
+    context_.reshaping_ancestors -= reshapes ? 1 : 0;
     canonical["children"] = std::move(canonical_children);
   }
   if (size > options_.limits.max_nodes) {
@@ -237,7 +251,8 @@ Result<ParsedNode> SceneParser::parse_node(const nlohmann::json& j, const std::s
   if (!reader.ok()) return reader.error();
   node->params = std::move(*params);
   for (auto& [key, value] : node->params.canonical.items()) canonical[key] = value;
-  return ParsedNode{std::move(node), std::move(canonical), size, height};
+  const bool adds_water = context_.water_layers.size() > water_layers_before;
+  return ParsedNode{std::move(node), std::move(canonical), size, height, adds_water};
 }
 
 Result<Scene> SceneParser::parse() {
@@ -287,6 +302,9 @@ Result<Scene> SceneParser::parse() {
   context_.base_elevation = scene.base_elevation;
   Result<ParsedNode> parsed_root = parse_node(*root, "/root", 1);
   if (!parsed_root) return parsed_root.error();
+  // Definitions parsed below that the root does not use make no water.
+  const std::vector<NodePtr> root_water_layers = std::move(context_.water_layers);
+  context_.water_layers.clear();
 
   nlohmann::json canonical = reader.canonical();
   if (definitions_ != nullptr) {
@@ -304,12 +322,27 @@ Result<Scene> SceneParser::parse() {
   scene.root = parsed_root->node;
   scene.bounds = tree_bounds(*scene.root, {});
   if (water != nullptr) {
+    context_.in_water_tree = true;
     Result<ParsedNode> parsed_water = parse_node(*water, "/water", 1);
+    context_.in_water_tree = false;
     if (!parsed_water) return parsed_water.error();
     canonical["water"] = parsed_water->canonical;
     scene.water = parsed_water->node;
-    scene.water_bounds = tree_bounds(*scene.water, {});
   }
+  // The terrain's own water (a drainage's rivers and lakes) over the authored layer, each later
+  // one over the earlier where it is.
+  for (const NodePtr& layer : root_water_layers) {
+    if (!scene.water) {
+      scene.water = layer;
+      continue;
+    }
+    auto over = std::make_shared<Node>();
+    over->type = &replace_node_type();
+    over->params.pool = {1.0f};  // weight "progressive": wet where either layer is
+    over->children = {scene.water, layer};
+    scene.water = std::move(over);
+  }
+  if (scene.water) scene.water_bounds = tree_bounds(*scene.water, {});
   scene.canonical = std::move(canonical);
   scene.hash = "sha256:" + sha256_hex(scene.canonical_text());
   scene.baked = !context_.unbaked;

@@ -26,7 +26,8 @@ Result<nlohmann::json> analyze_scene(const Scene& scene, const Program& program,
   const GridSpec spec{area.lo.x, area.lo.y, side / (n - 1), n, n, -1.0f};
   const std::vector<float> elevation = evaluate_grid(program, spec, 1).elevation;
 
-  // Water of the scene's water layer (weight ≥ 0.5, surface above the ground) is not land.
+  // Water of the scene's water layer (weight ≥ 0.5, surface above the ground) is wet land: flow
+  // crosses its lakes and rivers, and no pit or closed depression is counted under them.
   std::vector<std::uint8_t> water;
   std::int64_t water_cells = 0;
   if (scene.water) {
@@ -48,7 +49,7 @@ Result<nlohmann::json> analyze_scene(const Scene& scene, const Program& program,
       }
     }
   }
-  const ElevationGrid grid{n, n, spec.step, elevation, options.sea_level, water};
+  const ElevationGrid grid{n, n, spec.step, elevation, options.sea_level, {}, water};
   Result<Geomorphometry> figures = analyze(grid, options.analysis);
   if (!figures) return figures.error();
   nlohmann::json out = to_json(*figures);

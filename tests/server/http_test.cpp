@@ -96,7 +96,7 @@ TEST_F(HttpApi, SceneListHoldsTheBuiltInScenes) {
     EXPECT_EQ(s["url"], "/api/v1/scenes/" + s["id"].get<std::string>());
   }
   for (const char* id : {"alpine-valleys", "butte", "coastal-range", "craters", "hills-river",
-                         "lake-dunes", "mountain-range", "river-basin", "winding-road"}) {
+                         "lake-dunes", "mountain-range", "river-basin", "river-lake", "winding-road"}) {
     EXPECT_TRUE(ids.contains(id)) << id;
   }
 }
@@ -162,6 +162,18 @@ TEST_F(HttpApi, SampleGivesElevationWeightGradientAndLipschitzBound) {
   EXPECT_GE(body["weight"].get<double>(), 0.0);
   EXPECT_EQ(body["gradient"].size(), 2u);
   EXPECT_GT(body["lipschitz"].get<double>(), 0.0);
+  EXPECT_TRUE(body["water"].is_null()) << "hills-river has no water layer";
+}
+
+TEST_F(HttpApi, SampleSaysWhereADrainagesLakeAndRiversAre) {
+  // river-lake's lake fills the basin dug at (1500, 100); the ridges are dry.
+  const json lake = body_json(get("/api/v1/scenes/river-lake/sample?x=1500&y=100"));
+  ASSERT_TRUE(lake["water"].is_object()) << lake.dump();
+  EXPECT_TRUE(lake["water"]["wet"].get<bool>()) << lake.dump();
+  EXPECT_GT(lake["water"]["surface"].get<double>(), lake["elevation"].get<double>());
+  const json ridge = body_json(get("/api/v1/scenes/river-lake/sample?x=-2500&y=2800"));
+  EXPECT_FALSE(ridge["water"]["wet"].get<bool>()) << ridge.dump();
+  EXPECT_TRUE(ridge["water"]["surface"].is_null());
 }
 
 TEST_F(HttpApi, LayerJsonDescribesPinnedQuantizedMeshTiles) {

@@ -353,15 +353,43 @@ TEST(Geomorphometry, TheCliAnalyzesAnExampleScene) {
   EXPECT_EQ(j["input"]["water_cells"], 0);
 }
 
-TEST(Geomorphometry, TheCliTakesTheWaterLayerOutOfTheLand) {
+TEST(Geomorphometry, TheCliCountsNoPitsOrDepressionsUnderTheWaterLayer) {
   const auto [status, text] =
       run_cli("analyze " + (kScenes / "lake-dunes.json").string() + " --size 128");
   ASSERT_EQ(status, 0);
   const nlohmann::json j = nlohmann::json::parse(text);
   expect_sane_figures(j, 128);
-  EXPECT_GT(j["input"]["water_cells"].get<std::int64_t>(), 0);
-  EXPECT_EQ(j["land_cells"].get<std::int64_t>() + j["input"]["water_cells"].get<std::int64_t>(),
-            128 * 128);
+  // The lake is wet land: flow crosses it, its floor is neither pits nor closed depressions.
+  const auto wet = j["input"]["water_cells"].get<std::int64_t>();
+  EXPECT_GT(wet, 0);
+  EXPECT_EQ(j["wet_cells"].get<std::int64_t>(), wet);
+  EXPECT_EQ(j["land_cells"].get<std::int64_t>(), 128 * 128);
+  EXPECT_LE(j["closed_depressions"]["cells"].get<std::int64_t>() + wet, 128 * 128);
+}
+
+TEST(Geomorphometry, WetCellsAreNeitherPitsNorClosedDepressions) {
+  // A bowl: every interior cell drains to the middle, a pit, and the bowl is one depression.
+  constexpr int side = 9;
+  std::vector<float> z(side * side);
+  for (int j = 0; j < side; ++j) {
+    for (int i = 0; i < side; ++i) {
+      z[static_cast<std::size_t>(j * side + i)] = static_cast<float>(std::hypot(i - 4, j - 4));
+    }
+  }
+  const Geomorphometry dry = *analyze({side, side, 1.0, z, std::nullopt, {}});
+  EXPECT_EQ(dry.pits, 1);
+  EXPECT_GT(dry.depression_cells, 0);
+  // Under a lake over the middle 5 × 5 cells: nothing to count, and the shares are of dry land.
+  std::vector<std::uint8_t> lake(z.size(), 0);
+  for (int j = 2; j <= 6; ++j) {
+    for (int i = 2; i <= 6; ++i) lake[static_cast<std::size_t>(j * side + i)] = 1;
+  }
+  const Geomorphometry wet = *analyze({side, side, 1.0, z, std::nullopt, {}, lake});
+  EXPECT_EQ(wet.wet_cells, 25);
+  EXPECT_EQ(wet.pits, 0);
+  EXPECT_EQ(wet.land_cells, side * side);
+  EXPECT_DOUBLE_EQ(wet.closed_depression_share,
+                   static_cast<double>(wet.depression_cells) / (side * side - 25));
 }
 
 class GeomorphometryGeoTiff : public testing::TestWithParam<const char*> {};

@@ -26,6 +26,10 @@ struct ElevationGrid {
   std::optional<float> sea_level = {};
   /// Empty, or width * height flags: nonzero marks a cell as water (not land, an outlet).
   std::span<const std::uint8_t> water = {};
+  /// Empty, or width * height flags: nonzero marks land under a lake or river. Flow crosses it
+  /// like any land; the analysis counts no pits or closed depressions there (a lake's floor is a
+  /// depression by nature).
+  std::span<const std::uint8_t> wet = {};
 };
 
 /// The eight D8 neighbours' offsets in increasing linear index: the row below, the same row,
@@ -63,8 +67,8 @@ struct Drainage {
 };
 
 /// Validates the grid (sides 1..kMaxGridSide, at most kMaxGridCells, cell size finite and > 0,
-/// elevation and water spans of the right length, a finite sea level) and routes it. Errors
-/// name the field: /width, /height, /cell_size, /elevation, /water, /sea_level.
+/// elevation, water and wet spans of the right length, a finite sea level) and routes it.
+/// Errors name the field: /width, /height, /cell_size, /elevation, /water, /wet, /sea_level.
 Result<Drainage> route_drainage(const ElevationGrid& grid);
 
 /// Strahler order of every cell of a channel network (0 for cells outside it): a channel cell

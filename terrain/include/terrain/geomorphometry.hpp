@@ -36,11 +36,13 @@ struct Geomorphometry {
   int height = 0;
   double cell_size = 0.0;  ///< metres
   std::int64_t land_cells = 0;
-  std::int64_t pits = 0;                 ///< interior land cells with no lower D8 neighbour (raw)
-  double pit_share = 0.0;                ///< pits / land cells
-  double depression_epsilon = 0.0;       ///< metres, the threshold used
-  std::int64_t depression_cells = 0;     ///< land cells raised by filling > depression_epsilon
-  double closed_depression_share = 0.0;  ///< depression_cells / land cells
+  std::int64_t wet_cells = 0;  ///< land cells under a lake or river (ElevationGrid::wet)
+  /// Interior dry land cells with no lower D8 neighbour (raw).
+  std::int64_t pits = 0;
+  double pit_share = 0.0;             ///< pits / dry land cells
+  double depression_epsilon = 0.0;    ///< metres, the threshold used
+  std::int64_t depression_cells = 0;  ///< dry land cells raised by filling > depression_epsilon
+  double closed_depression_share = 0.0;  ///< depression_cells / dry land cells
   double channel_area = 0.0;             ///< threshold used, m²
   std::int64_t channel_cells = 0;
   double max_drainage_area = 0.0;  ///< m², the largest over land cells

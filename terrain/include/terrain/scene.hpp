@@ -154,6 +154,14 @@ struct ParseContext {
   std::int64_t erosion_evaluations = 0;
   /// Set by a node that skipped baking its grid (ParseOptions::bake = false).
   bool unbaked = false;
+  /// Ancestors of the node being parsed that move or reshape their subtree (transforms, warps,
+  /// nodes that bake their child): a drainage's water, in the scene's frame, cannot follow them.
+  int reshaping_ancestors = 0;
+  /// Whether the water tree (/water) is being parsed.
+  bool in_water_tree = false;
+  /// Water layers made by nodes of the terrain tree (a drainage's rivers and lakes), in parse
+  /// order; the scene's water layer shows them over its own.
+  std::vector<NodePtr> water_layers;
   const ParseOptions* options = nullptr;
   /// Derives a node's noise seed from the scene seed and the node's own "seed" field.
   std::uint32_t noise_seed(std::int64_t node_seed) const;

@@ -1,198 +1,21 @@
 #include "nodes/erosion.hpp"
 
 #include <algorithm>
-#include <cmath>
-#include <set>
 
 #include "field_reader.hpp"
+#include "nodes/baked_grid.hpp"
 #include "nodes/image.hpp"
-#include "nodes/stored_bounds.hpp"
 #include "terrain/erosion.hpp"
-#include "terrain/evaluate.hpp"
-#include "terrain/heightfield.hpp"
-#include "terrain/program.hpp"
-#include "terrain/scene.hpp"
 
 namespace terrain {
 namespace {
 
-/// Appends what evaluating a subtree depends on — each node's type and packed parameters (seeds,
-/// images and all), its children in order — to `out`: two subtrees with the same bytes evaluate
-/// the same everywhere.
-void append_content(const Node& node, std::string& out) {
-  const std::uint16_t id = node.type->id;
-  const auto floats = static_cast<std::uint64_t>(node.params.pool.size());
-  const auto children = static_cast<std::uint64_t>(node.children.size());
-  out.append(reinterpret_cast<const char*>(&id), sizeof id);
-  out.append(reinterpret_cast<const char*>(&floats), sizeof floats);
-  out.append(reinterpret_cast<const char*>(node.params.pool.data()), floats * sizeof(float));
-  out.append(reinterpret_cast<const char*>(&children), sizeof children);
-  for (const NodePtr& child : node.children) append_content(*child, out);
-}
-
-// The pool is an image primitive's (nodes/image.cpp: 0 λ_f, 1 λ_α, 2 h_lo, 3 h_hi, 4..7 box,
-// 8 mapping, 9 heightfield, 10 mapping mode: 2, the box itself), whose curve-only slot 12 holds the
-// offset of a table of local bounds: tile side in cells, tiles per side, cells per side, then per
-// tile of kTile × kTile cells its slope bound in metres per metre and its height range.
-constexpr int kBox = 4, kMode = 10, kTable = 12;
-constexpr float kOnItsBox = 2.0f;  // the image's mapping mode 2: its support box
-constexpr int kTile = 8;
-constexpr std::size_t kTileFloats = 3;
-
-/// Local bounds of a bicubic grid of n × n samples (raster rows, north first) over a square of
-/// side `side` metres: per tile, 2.5 × the largest neighbour difference per axis over its cells'
-/// stencils (a cell's cubic reads one sample more on each side), and the overshoot-widened range
-/// of those samples (heightfield.hpp).
-void pack_local_bounds(const std::vector<float>& h, int n, double side, std::vector<float>& pool) {
-  const int cells = n - 1;
-  const int tiles = (cells + kTile - 1) / kTile;
-  const double cell = side / cells;
-  pool[kTable] = static_cast<float>(pool.size());
-  pool.insert(pool.end(),
-              {static_cast<float>(kTile), static_cast<float>(tiles), static_cast<float>(cells)});
-  const auto at = [&](int i, int j) {
-    return static_cast<double>(
-        h[static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(i)]);
-  };
-  for (int tj = 0; tj < tiles; ++tj) {
-    for (int ti = 0; ti < tiles; ++ti) {
-      // Samples of the cells' stencils: one before the tile's first cell, one after its last.
-      const int i0 = std::max(ti * kTile - 1, 0), i1 = std::min((ti + 1) * kTile + 1, cells);
-      const int j0 = std::max(tj * kTile - 1, 0), j1 = std::min((tj + 1) * kTile + 1, cells);
-      double du = 0.0, dv = 0.0, lo = at(i0, j0), hi = lo;
-      for (int j = j0; j <= j1; ++j) {
-        for (int i = i0; i <= i1; ++i) {
-          const double z = at(i, j);
-          lo = std::min(lo, z);
-          hi = std::max(hi, z);
-          if (i < i1) du = std::max(du, std::abs(at(i + 1, j) - z));
-          if (j < j1) dv = std::max(dv, std::abs(at(i, j + 1) - z));
-        }
-      }
-      const double lu = 2.5 * du / cell, lv = 2.5 * dv / cell;
-      const double middle = 0.5 * (lo + hi), half = 0.5 * (hi - lo) * 1.5625;
-      const double pad = 1e-6 * std::max({std::abs(lo), std::abs(hi), 1.0});
-      // Rounded outwards: a bound a float ulp short is no bound.
-      pool.push_back(static_cast<float>(std::sqrt(lu * lu + lv * lv) * (1.0 + 1e-5)) *
-                     (1.0f + 1e-6f));
-      pool.push_back(static_cast<float>(middle - half - pad));
-      pool.push_back(static_cast<float>(middle + half + pad));
-    }
-  }
-}
-
-/// Bounds over the query box from the tiles it may touch (points outside the square read the
-/// clamped edge: the edge tiles).
-NodeBounds erosion_bounds(const float* params, const BoundsQuery& query) {
-  const Box2 square = stored_box(params + kBox);
-  const auto table = static_cast<std::size_t>(params[kTable]);
-  const auto tile = static_cast<int>(params[table]);
-  const auto tiles = static_cast<int>(params[table + 1]);
-  const double cells = params[table + 2];
-  const float* entries = params + table + 3;
-  const double side = static_cast<double>(square.hi.x) - square.lo.x;
-  const auto index = [&](double offset) {  // a cell index, one cell of slack either way
-    const double c = std::floor(offset / side * cells);
-    return std::clamp(c, 0.0, cells - 1.0);
-  };
-  const Box2& q = query.box;
-  const double c0 = index(static_cast<double>(q.lo.x) - square.lo.x) - 1.0;
-  const double c1 = index(static_cast<double>(q.hi.x) - square.lo.x) + 1.0;
-  const double r0 = index(static_cast<double>(square.hi.y) - q.hi.y) - 1.0;  // rows from north
-  const double r1 = index(static_cast<double>(square.hi.y) - q.lo.y) + 1.0;
-  const auto tile_of = [&](double c) {
-    return std::clamp(static_cast<int>(std::max(c, 0.0)) / tile, 0, tiles - 1);
-  };
-  const int t0 = tile_of(c0), t1 = tile_of(c1), s0 = tile_of(r0), s1 = tile_of(r1);
-  float slope = 0.0f;
-  Interval range{INFINITY, -INFINITY};
-  for (int tj = s0; tj <= s1; ++tj) {
-    for (int ti = t0; ti <= t1; ++ti) {
-      const float* e = entries + kTileFloats * static_cast<std::size_t>(tj * tiles + ti);
-      slope = std::max(slope, e[0]);
-      range = {std::min(range.lo, e[1]), std::max(range.hi, e[2])};
-    }
-  }
-  NodeBounds b = image_node_type().kernels.leaf_bounds(params, query);
-  b.elevation = range;
-  b.elevation_lipschitz = std::min(b.elevation_lipschitz, slope);
-  return b;
-}
-
-/// Nodes of a subtree with references expanded (a shared subtree counts once per use).
-std::int64_t expanded_nodes(const Node& node) {
-  std::int64_t count = 1;
-  for (const NodePtr& child : node.children) count += expanded_nodes(*child);
-  return count;
-}
-
-/// The child's surface over the square, row 0 north (a raster): α f + (1 − α) base, sampled at
-/// the grid's own level of detail so the grid does not alias finer detail.
-std::vector<float> sample_child(const Node& child, const NodeBounds& bounds, float base_elevation,
-                                Vec2 origin, double step, int side) {
-  Scene scene;
-  scene.root = std::shared_ptr<const Node>(std::shared_ptr<const Node>{}, &child);
-  scene.base_elevation = base_elevation;
-  scene.bounds = bounds;
-  CompileOptions options;
-  options.bound_queries = 0;  // the child's global bound is not needed to sample it
-  Result<Program> program = compile(scene, options);
-  std::vector<float> out(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
-  if (!program) return out;  // compile fails only on limits the scene's own parse enforces
-  Evaluator evaluator(*program);
-  PointBlock block;
-  FieldBlock field;
-  block.spacing = static_cast<float>(step);
-  constexpr int kSide = 8;
-  for (int by = 0; by < side; by += kSide) {
-    for (int bx = 0; bx < side; bx += kSide) {
-      const int columns = std::min(kSide, side - bx), rows = std::min(kSide, side - by);
-      block.count = 0;
-      for (int j = 0; j < rows; ++j) {
-        for (int i = 0; i < columns; ++i) {
-          block.x[block.count] = static_cast<float>(origin.x + step * (bx + i));
-          block.y[block.count] = static_cast<float>(origin.y + step * (by + j));
-          ++block.count;
-        }
-      }
-      block.recompute_box();
-      evaluator.evaluate(block, field);
-      for (int j = 0; j < rows; ++j) {
-        for (int i = 0; i < columns; ++i) {
-          const int k = j * columns + i;
-          const float a = std::clamp(field.a[k], 0.0f, 1.0f);
-          const std::size_t row = static_cast<std::size_t>(side - 1 - (by + j));
-          out[row * static_cast<std::size_t>(side) + static_cast<std::size_t>(bx + i)] =
-              a * field.f[k] + (1.0f - a) * base_elevation;
-        }
-      }
-    }
-  }
-  return out;
-}
-
 Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
   const SceneLimits& limits = context.options->limits;
   const Node& child = *context.children.front();
-  const NodeBounds child_bounds = tree_bounds(child, {});
-  const Box2& support = child_bounds.support;
-  const bool bounded = !support.empty() && std::isfinite(support.lo.x) &&
-                       std::isfinite(support.hi.x) && std::isfinite(support.lo.y) &&
-                       std::isfinite(support.hi.y);
-  if (!bounded && (!reader.has("center") || !reader.has("size"))) {
-    reader.fail(
-        "is required: the child's support is unbounded, so the square to erode must be given",
-        reader.has("center") ? "size" : "center");
-    return reader.error();
-  }
-  const Vec2 center = reader.vec2(
-      "center", bounded ? std::optional<Vec2>(support.center()) : std::nullopt, {-1e7, 1e7});
-  const double size = reader.number(
-      "size",
-      bounded ? std::optional<double>(std::max(support.size().x, support.size().y)) : std::nullopt,
-      {1.0, 1e7});
-  const auto resolution = static_cast<int>(reader.integer(
-      "resolution", 256, kMinErosionSide, std::min(limits.max_erosion_side, kMaxErosionSide)));
+  const std::optional<GridSquare> square = read_grid_square(reader, context, 256);
+  if (!square) return reader.error();
+  const int resolution = square->resolution;
   ErosionParams p;
   p.iterations = static_cast<int>(reader.integer("iterations", 24, 1, kMaxErosionIterations));
   p.strength = reader.number("strength", 2.0, {0.0, kMaxErosionStrength});
@@ -201,7 +24,6 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
   p.diffusion = reader.number("diffusion", 0.05, {0.0, kMaxDiffusion});
   p.talus_angle = reader.number("talus_angle", 60.0, {kMinTalusAngle, kMaxTalusAngle});
   if (reader.has("sea_level")) p.sea_level = reader.number("sea_level", std::nullopt, {-1e5, 1e5});
-  const auto margin = static_cast<float>(reader.number("margin", 0.02, {0.001, 0.5}));
   if (!reader.ok()) return reader.error();
 
   // The cost first: refused before anything is sampled.
@@ -224,66 +46,45 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
                  pointer_join(reader.pointer(), "resolution"), ErrorKind::unsupported};
   }
 
-  const double step = size / (resolution - 1);
-  const auto lo_x = static_cast<float>(center.x - 0.5 * size);
-  const auto hi_x = static_cast<float>(center.x + 0.5 * size);
-  const auto lo_y = static_cast<float>(center.y - 0.5 * size);
-  const auto hi_y = static_cast<float>(center.y + 0.5 * size);
-  // Corners north-west, north-east, south-east, south-west: raster row 0 is the north.
-  Result<QuadMap> quad = QuadMap::create({lo_x, hi_y}, {hi_x, hi_y}, {hi_x, lo_y}, {lo_x, lo_y});
-  if (!quad) return Error{quad.error().message, pointer_join(reader.pointer(), "size")};
-  HeightfieldParams hp;
-  hp.margin_u = hp.margin_v = margin;
-  hp.cubic = true;  // C1: no creases along the grid's cells in hillshades and normals
-
   NodeParams out;
   out.canonical = reader.canonical();
   if (!context.options->bake) {
     // Validated and costed; the grid is made when the scene is parsed to be served. A flat
     // stand-in keeps the node's bounds defined meanwhile.
     context.unbaked = true;
-    Raster flat;
-    flat.width = flat.height = 2;
-    flat.samples.assign(4, context.base_elevation);
-    out.pool = pack_image_on_quad(Heightfield::create(flat, hp).value(), *quad);
-    out.pool[kMode] = kOnItsBox;
-    pack_local_bounds(flat.samples, 2, static_cast<double>(hi_x) - lo_x, out.pool);
+    Result<std::vector<float>> flat =
+        pack_baked_grid(std::vector<float>(4, context.base_elevation), 2, *square, true);
+    if (!flat) return Error{flat.error().message, pointer_join(reader.pointer(), "size")};
+    out.pool = std::move(*flat);
     return out;
   }
   // The grid: sampled, eroded and packed with its local bounds. Erosion and packing fail only
   // on what the parameters above exclude, so a failure here is this module's (internal).
   const auto bake = [&]() -> BakeCache::Grid {
-    Raster raster;
-    raster.width = raster.height = resolution;
-    raster.samples =
-        sample_child(child, child_bounds, context.base_elevation, {lo_x, lo_y}, step, resolution);
+    std::vector<float> samples = sample_child(child, context.base_elevation, *square);
     // The solver's row 0 is the south row: flip the raster's rows in and out.
-    std::vector<float> south_up(raster.samples.size());
+    std::vector<float> south_up(samples.size());
     const auto row = static_cast<std::size_t>(resolution);
     for (std::size_t j = 0; j < row; ++j) {
-      std::copy_n(raster.samples.begin() + static_cast<std::ptrdiff_t>(j * row), row,
+      std::copy_n(samples.begin() + static_cast<std::ptrdiff_t>(j * row), row,
                   south_up.begin() + static_cast<std::ptrdiff_t>((row - 1 - j) * row));
     }
     Result<std::vector<float>> eroded =
-        erode({resolution, resolution, step, south_up, std::nullopt, {}}, p);
+        erode({resolution, resolution, square->step(), south_up, std::nullopt, {}}, p);
     if (!eroded) return nullptr;
     for (std::size_t j = 0; j < row; ++j) {
       std::copy_n(eroded->begin() + static_cast<std::ptrdiff_t>(j * row), row,
-                  raster.samples.begin() + static_cast<std::ptrdiff_t>((row - 1 - j) * row));
+                  samples.begin() + static_cast<std::ptrdiff_t>((row - 1 - j) * row));
     }
-    Result<Heightfield> field = Heightfield::create(raster, hp);
-    if (!field) return nullptr;
-    std::vector<float> pool = pack_image_on_quad(*field, *quad);
-    pool[kMode] = kOnItsBox;  // the square is axis-aligned: u, v are affine in x, y
-    pack_local_bounds(raster.samples, resolution, static_cast<double>(hi_x) - lo_x, pool);
-    return std::make_shared<const std::vector<float>>(std::move(pool));
+    Result<std::vector<float>> pool =
+        pack_baked_grid(std::move(samples), resolution, *square, true);
+    if (!pool) return nullptr;
+    return std::make_shared<const std::vector<float>>(std::move(*pool));
   };
   BakeCache::Grid grid;
   if (BakeCache* cache = context.options->bake_cache) {
-    std::string content = "erosion/1 " + out.canonical.dump() + " base " +
-                          std::to_string(context.base_elevation) + " ";
-    append_content(child, content);
-    grid = cache->get_or_make(sha256_hex(content), bake);
+    grid = cache->get_or_make(
+        baked_grid_key("erosion/1", out.canonical, context.base_elevation, child), bake);
   } else {
     grid = bake();
   }
@@ -292,12 +93,6 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
   }
   out.pool = *grid;
   return out;
-}
-
-// The image primitive's mapping steps, and the bicubic's 4 × 4 sample loop.
-std::size_t erosion_loop_iterations(std::span<const float> params) {
-  constexpr std::size_t kBicubicSteps = 20;
-  return image_node_type().loop_iterations(params) + kBicubicSteps;
 }
 
 }  // namespace
@@ -314,12 +109,12 @@ const NodeType& erosion_node_type() {
           "diffusion, a talus slope and depression deposits on a grid over a square",
       .parse = parse_erosion,
       .kernels = {.leaf = image_node_type().kernels.leaf,
-                  .leaf_bounds = erosion_bounds,
+                  .leaf_bounds = baked_grid_bounds,
                   .varies_with_spacing = never_varies_with_spacing},
       .example_json = R"({"type": "erosion", "resolution": 48, "iterations": 6,
  "children": [{"type": "disc", "center": [0, 0], "radius": 600, "elevation": 300,
    "noise": {"kind": "ridged", "amplitude": 200, "wavelength": 400, "octaves": 4, "seed": 3}}]})",
-      .loop_iterations = erosion_loop_iterations,
+      .loop_iterations = baked_grid_loop_iterations,
       .shader = {.call = "image_leaf($at, $p)", .heavy = true},
   };
   return type;

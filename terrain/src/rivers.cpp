@@ -1,0 +1,249 @@
+// Lakes, channels and their carving (docs/erosion.md, "Drainage"), on the routing of drainage.cpp.
+#include "terrain/rivers.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "terrain/erosion.hpp"
+
+namespace terrain {
+namespace {
+
+// A valley floor falls this much per metre toward its channel, so no floor cell is flat.
+constexpr double kFloorSlope = 0.01;
+
+struct Lakes {
+  std::vector<std::uint8_t> lake;  ///< 1 for cells of a kept lake
+  std::vector<double> level;       ///< the spill level of each cell's lake
+  int count = 0;
+};
+
+/// The depressions of the routed grid: 8-connected cells the flood raised. Those at least
+/// `min_depth` deep somewhere are lakes at their spill level; the others stay filled.
+Lakes find_lakes(const Drainage& d, std::span<const float> elevation, double min_depth) {
+  const std::size_t n = d.cells();
+  const int w = d.width, h = d.height;
+  Lakes out;
+  out.lake.assign(n, 0);
+  out.level.assign(n, 0.0);
+  const auto raised = [&](std::size_t c) {
+    return d.land[c] != 0 && d.filled[c] > static_cast<double>(elevation[c]);
+  };
+  std::vector<std::uint8_t> seen(n, 0);
+  std::vector<std::int32_t> component;
+  for (std::size_t start = 0; start < n; ++start) {
+    if (seen[start] != 0 || !raised(start)) continue;
+    // One depression, breadth first from its lowest-index cell.
+    component.clear();
+    component.push_back(static_cast<std::int32_t>(start));
+    seen[start] = 1;
+    double deepest = 0.0, level = d.filled[start];
+    for (std::size_t k = 0; k < component.size(); ++k) {
+      const auto c = static_cast<std::size_t>(component[k]);
+      deepest = std::max(deepest, d.filled[c] - static_cast<double>(elevation[c]));
+      level = std::min(level, d.filled[c]);
+      const int ci = static_cast<int>(c % static_cast<std::size_t>(w));
+      const int cj = static_cast<int>(c / static_cast<std::size_t>(w));
+      for (int m = 0; m < 8; ++m) {
+        const int ni = ci + kD8Dx[m], nj = cj + kD8Dy[m];
+        if (ni < 0 || nj < 0 || ni >= w || nj >= h) continue;
+        const std::size_t nc = static_cast<std::size_t>(nj) * static_cast<std::size_t>(w) +
+                               static_cast<std::size_t>(ni);
+        if (seen[nc] != 0 || !raised(nc)) continue;
+        seen[nc] = 1;
+        component.push_back(static_cast<std::int32_t>(nc));
+      }
+    }
+    if (deepest < min_depth) continue;
+    ++out.count;
+    for (const std::int32_t c : component) {
+      out.lake[static_cast<std::size_t>(c)] = 1;
+      out.level[static_cast<std::size_t>(c)] = level;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Status validate_rivers(const ElevationGrid& grid, const RiverParams& p) {
+  const auto within = [](double v, double lo, double hi) {
+    return std::isfinite(v) && v >= lo && v <= hi;
+  };
+  if (!within(p.channel_area, kMinChannelArea, kMaxChannelArea)) {
+    return Error{"must be an area in m² from 1 to 1e13", "/channel_area"};
+  }
+  if (!within(p.width, 0.0, kMaxChannelWidth) || !(p.width > 0.0)) {
+    return Error{"must be a width in metres greater than 0, at most 1e4", "/width"};
+  }
+  if (!within(p.depth, 0.0, kMaxChannelDepth) || !(p.depth > 0.0)) {
+    return Error{"must be a depth in metres greater than 0, at most 1e3", "/depth"};
+  }
+  if (!within(p.bank_slope, kMinBankSlope, kMaxBankSlope)) {
+    return Error{"must be a rise per run from 0.05 to 20", "/bank_slope"};
+  }
+  if (!within(p.lake_depth, 0.0, kMaxLakeDepth) || !(p.lake_depth > 0.0)) {
+    return Error{"must be a depth in metres greater than 0, at most 1e4", "/lake_depth"};
+  }
+  if (p.sea_level && !std::isfinite(*p.sea_level)) {
+    return Error{"must be a finite elevation", "/sea_level"};
+  }
+  if (grid.width < 3 || grid.height < 3) return Error{"must be at least 3 cells", "/width"};
+  return Ok{};
+}
+
+Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams& p) {
+  if (Status valid = validate_rivers(input, p); !valid) return valid.error();
+  ElevationGrid grid = input;
+  grid.water = {};
+  if (p.sea_level) grid.sea_level = static_cast<float>(*p.sea_level);
+  Result<Drainage> routed = route_drainage(grid);
+  if (!routed) return routed.error();
+  const Drainage& d = *routed;
+  const std::size_t n = d.cells();
+  const int w = grid.width, h = grid.height;
+  const double cell = grid.cell_size;
+
+  // δ: what each channel cell keeps below the one upstream, four float32 ulps of the largest
+  // magnitude at least, so beds and water descend in float32 too.
+  double magnitude = 1.0;
+  for (const float z : grid.elevation) {
+    if (std::isfinite(z)) magnitude = std::max(magnitude, std::fabs(static_cast<double>(z)));
+  }
+  const double delta =
+      std::max(1e-4 * cell, 4.0 * (std::nextafter(static_cast<float>(magnitude), INFINITY) -
+                                   static_cast<float>(magnitude)));
+
+  RiverNetwork out;
+  Lakes lakes = find_lakes(d, grid.elevation, p.lake_depth);
+  out.lakes = lakes.count;
+  // The surface rivers run on: shallow depressions filled, lake floors and the sea as they were.
+  std::vector<double> ground(n);
+  for (std::size_t c = 0; c < n; ++c) {
+    const bool filled = d.land[c] != 0 && lakes.lake[c] == 0;
+    ground[c] = filled ? d.filled[c] : static_cast<double>(grid.elevation[c]);
+  }
+
+  // Channels: land outside lakes draining at least the threshold area. Their beds and water,
+  // lowered where needed so each lies δ below the one upstream (upstream first).
+  out.channel.assign(n, 0);
+  out.downstream.assign(n, -1);
+  std::vector<double> bed(n, 0.0), water(n, 0.0), half_width(n, 0.0), depth(n, 0.0);
+  for (std::size_t c = 0; c < n; ++c) {
+    if (d.land[c] == 0 || lakes.lake[c] != 0 || d.area[c] < p.channel_area) continue;
+    out.channel[c] = 1;
+    const double q = d.area[c] / p.channel_area;
+    half_width[c] = 0.5 * p.width * std::sqrt(q);
+    depth[c] = p.depth * portable_pow(q, 0.4);
+    bed[c] = ground[c] - depth[c];
+    water[c] = bed[c] + kWaterShareOfDepth * depth[c];
+  }
+  for (std::size_t c = 0; c < n; ++c) {
+    const std::int32_t r = d.receiver[c];
+    if (out.channel[c] != 0 && r >= 0 && out.channel[static_cast<std::size_t>(r)] != 0) {
+      out.downstream[c] = r;
+    }
+  }
+  for (std::size_t k = n; k-- > 0;) {
+    const auto c = static_cast<std::size_t>(d.order[k]);
+    const std::int32_t r = out.downstream[c];
+    if (r < 0) continue;
+    const auto rc = static_cast<std::size_t>(r);
+    bed[rc] = std::min(bed[rc], bed[c] - delta);
+    water[rc] = std::min(water[rc], water[c] - delta);
+  }
+
+  // The carve: each channel cell's cross-section — a floor of its width sloping gently to the
+  // centre line, banks beyond — cut into the ground around it. A cell takes the section it lies
+  // deepest inside (the least distance beyond a floor's edge; then the lower section), and a
+  // channel cell its own bed: taking the lowest section would let a wide river's floor run at
+  // the floor's slope instead of its own.
+  std::vector<double> carved(n, std::numeric_limits<double>::infinity());
+  std::vector<double> beyond_floor(n, std::numeric_limits<double>::infinity());
+  std::vector<std::int32_t> owner(n, -1);
+  for (std::size_t c = 0; c < n; ++c) {
+    if (out.channel[c] == 0) continue;
+    const double reach = half_width[c] + depth[c] / p.bank_slope;
+    const int radius = std::min(kMaxCarveRadius, static_cast<int>(std::ceil(reach / cell - 1e-9)));
+    const int ci = static_cast<int>(c % static_cast<std::size_t>(w));
+    const int cj = static_cast<int>(c / static_cast<std::size_t>(w));
+    for (int nj = std::max(cj - radius, 0); nj <= std::min(cj + radius, h - 1); ++nj) {
+      for (int ni = std::max(ci - radius, 0); ni <= std::min(ci + radius, w - 1); ++ni) {
+        const std::size_t x = static_cast<std::size_t>(nj) * static_cast<std::size_t>(w) +
+                              static_cast<std::size_t>(ni);
+        if (d.land[x] == 0 || lakes.lake[x] != 0 || out.channel[x] != 0) continue;
+        const double di = ni - ci, dj = nj - cj;
+        const double distance = cell * std::sqrt(di * di + dj * dj);
+        const double outside = distance - half_width[c];
+        const double section =
+            bed[c] + kFloorSlope * distance + p.bank_slope * std::max(outside, 0.0);
+        if (outside < beyond_floor[x] || (outside == beyond_floor[x] && section < carved[x])) {
+          beyond_floor[x] = outside;
+          carved[x] = section;
+          owner[x] = static_cast<std::int32_t>(c);
+        }
+      }
+    }
+  }
+  for (std::size_t c = 0; c < n; ++c) {
+    if (out.channel[c] != 0) {
+      carved[c] = bed[c];
+      owner[c] = static_cast<std::int32_t>(c);
+    }
+  }
+  std::vector<double> carved_ground(n);
+  for (std::size_t c = 0; c < n; ++c) carved_ground[c] = std::min(ground[c], carved[c]);
+  // Beds stay below the ones upstream however the ground rounds: lowered downstream, not raised.
+  for (std::size_t k = n; k-- > 0;) {
+    const auto c = static_cast<std::size_t>(d.order[k]);
+    const std::int32_t r = out.downstream[c];
+    if (r < 0) continue;
+    const auto rc = static_cast<std::size_t>(r);
+    carved_ground[rc] = std::min(carved_ground[rc], carved_ground[c] - delta);
+  }
+
+  // In float32: every land cell outside lakes and the sea drains. Routed again with the lakes as
+  // water, a cell not above its receiver (rounding, a pocket the sections left) is raised just
+  // above it, receivers first.
+  out.terrain.resize(n);
+  for (std::size_t c = 0; c < n; ++c) out.terrain[c] = static_cast<float>(carved_ground[c]);
+  ElevationGrid final_grid = grid;
+  final_grid.elevation = out.terrain;
+  final_grid.water = lakes.lake;
+  Result<Drainage> final_routing = route_drainage(final_grid);
+  if (!final_routing) return final_routing.error();
+  for (const std::int32_t cell_index : final_routing->order) {
+    const auto c = static_cast<std::size_t>(cell_index);
+    const std::int32_t r = final_routing->receiver[c];
+    if (r >= 0 && !(out.terrain[c] > out.terrain[static_cast<std::size_t>(r)])) {
+      out.terrain[c] = std::nextafter(out.terrain[static_cast<std::size_t>(r)], INFINITY);
+    }
+  }
+
+  // The water surface: lakes, the sea, channels, and beside them their water where it stands
+  // above the carved ground; elsewhere below the ground.
+  out.water.resize(n);
+  for (std::size_t c = 0; c < n; ++c) {
+    const float ground_here = out.terrain[c];
+    float surface = ground_here - kDryDepth;
+    if (lakes.lake[c] != 0) {
+      surface = static_cast<float>(lakes.level[c]);
+    } else if (out.channel[c] != 0) {
+      // A channel's own water, above its bed (and whatever section cut lower beside it).
+      surface = std::max(static_cast<float>(water[c]), ground_here);
+    } else if (p.sea_level && d.land[c] == 0 && std::isfinite(grid.elevation[c])) {
+      surface = static_cast<float>(*p.sea_level);
+    } else if (const std::int32_t o = owner[c]; o >= 0) {
+      const auto level = static_cast<float>(water[static_cast<std::size_t>(o)]);
+      if (level > ground_here) surface = level;
+    }
+    out.water[c] = surface;
+  }
+  out.lake = std::move(lakes.lake);
+  out.strahler = strahler_orders(out.downstream, d.order, out.channel);
+  return out;
+}
+
+}  // namespace terrain
