@@ -140,7 +140,9 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
     const double slope =
         (static_cast<double>(raw[c]) - static_cast<double>(raw[static_cast<std::size_t>(r)])) /
         distance;
-    if (std::isfinite(slope) && slope > 0.0) {
+    // Under standing water the slope is a lake floor's, not a river's.
+    const bool standing = !grid.wet.empty() && grid.wet[c] == kStandingWater;
+    if (std::isfinite(slope) && slope > 0.0 && !standing) {
       log_area.push_back(std::log10(d.area[c]));
       log_slope.push_back(std::log10(slope));
     }

@@ -137,14 +137,35 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
     const double q = d.area[c] / p.channel_area;
     half_width[c] = 0.5 * p.width * std::sqrt(q);
     depth[c] = p.depth * portable_pow(q, 0.4);
-    bed[c] = ground[c] - depth[c];
-    water[c] = bed[c] + kWaterShareOfDepth * depth[c];
   }
   for (std::size_t c = 0; c < n; ++c) {
     const std::int32_t r = d.receiver[c];
     if (out.channel[c] != 0 && r >= 0 && out.channel[static_cast<std::size_t>(r)] != 0) {
       out.downstream[c] = r;
     }
+  }
+  // A channel deepens with its area, but no faster downstream than half the ground's fall: a
+  // confluence's jump in depth is spread over the reach below it, so the bed's slope stays
+  // between 1 and 1.5 times the ground's and the channel keeps the valley's Flint's law.
+  {
+    std::vector<double> reachable(n, 0.0);
+    std::vector<std::uint8_t> fed(n, 0);
+    for (std::size_t k = n; k-- > 0;) {
+      const auto c = static_cast<std::size_t>(d.order[k]);
+      if (out.channel[c] == 0) continue;
+      if (fed[c] != 0) depth[c] = std::min(depth[c], reachable[c]);
+      const std::int32_t r = out.downstream[c];
+      if (r < 0) continue;
+      const auto rc = static_cast<std::size_t>(r);
+      const double fall = std::max(ground[c] - ground[rc], 0.0);
+      reachable[rc] = std::max(reachable[rc], depth[c] + 0.5 * fall);
+      fed[rc] = 1;
+    }
+  }
+  for (std::size_t c = 0; c < n; ++c) {
+    if (out.channel[c] == 0) continue;
+    bed[c] = ground[c] - depth[c];
+    water[c] = bed[c] + kWaterShareOfDepth * depth[c];
   }
   for (std::size_t k = n; k-- > 0;) {
     const auto c = static_cast<std::size_t>(d.order[k]);
@@ -205,8 +226,8 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
   }
 
   // In float32: every land cell outside lakes and the sea drains. Routed again with the lakes as
-  // water, a cell not above its receiver (rounding, a pocket the sections left) is raised just
-  // above it, receivers first.
+  // water, a cell not above its receiver (rounding, a pocket the sections left) is raised four
+  // ulps above it, receivers first.
   out.terrain.resize(n);
   for (std::size_t c = 0; c < n; ++c) out.terrain[c] = static_cast<float>(carved_ground[c]);
   ElevationGrid final_grid = grid;
@@ -217,8 +238,12 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
   for (const std::int32_t cell_index : final_routing->order) {
     const auto c = static_cast<std::size_t>(cell_index);
     const std::int32_t r = final_routing->receiver[c];
-    if (r >= 0 && !(out.terrain[c] > out.terrain[static_cast<std::size_t>(r)])) {
-      out.terrain[c] = std::nextafter(out.terrain[static_cast<std::size_t>(r)], INFINITY);
+    if (r < 0) continue;
+    // Four ulps above: an evaluator's rounding of the bicubic at the sample may not undo it.
+    float above = out.terrain[static_cast<std::size_t>(r)];
+    for (int ulp = 0; ulp < 4; ++ulp) above = std::nextafter(above, INFINITY);
+    if (out.terrain[c] < above && !(out.terrain[c] > out.terrain[static_cast<std::size_t>(r)])) {
+      out.terrain[c] = above;
     }
   }
 

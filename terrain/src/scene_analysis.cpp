@@ -26,6 +26,9 @@ Result<nlohmann::json> analyze_scene(const Scene& scene, const Program& program,
   const GridSpec spec{area.lo.x, area.lo.y, side / (n - 1), n, n, -1.0f};
   const std::vector<float> elevation = evaluate_grid(program, spec, 1).elevation;
 
+  // Water surfaces flatter than this (metres per metre) stand: lakes. A drainage's rivers fall
+  // faster than that wherever they are a channel (δ per cell at least, rivers.hpp).
+  constexpr float kStandingSlope = 1e-5f;
   // Water of the scene's water layer (weight ≥ 0.5, surface above the ground) is wet land: flow
   // crosses its lakes and rivers, and no pit or closed depression is counted under them.
   std::vector<std::uint8_t> water;
@@ -43,7 +46,9 @@ Result<nlohmann::json> analyze_scene(const Scene& scene, const Program& program,
                      static_cast<float>(spec.origin_y + j * spec.step)};
         const FieldSample s = e.sample(p, static_cast<float>(spec.step));
         if (s.weight >= 0.5f && s.elevation > elevation[c]) {
-          water[c] = 1;
+          // A flat surface stands (a lake); one that falls flows (a river).
+          const float fall = std::hypot(s.elevation_gradient.x, s.elevation_gradient.y);
+          water[c] = fall < kStandingSlope ? kStandingWater : kFlowingWater;
           ++water_cells;
         }
       }

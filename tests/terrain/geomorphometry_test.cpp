@@ -392,6 +392,30 @@ TEST(Geomorphometry, WetCellsAreNeitherPitsNorClosedDepressions) {
                    static_cast<double>(wet.depression_cells) / (side * side - 25));
 }
 
+TEST(Geomorphometry, FlintsLawLeavesStandingWaterOut) {
+  // A valley along row 4 falling to the west edge; a lake over eleven of its channel cells.
+  constexpr int w = 32, h = 9;
+  std::vector<float> z(w * h);
+  for (int j = 0; j < h; ++j) {
+    for (int i = 0; i < w; ++i) {
+      z[static_cast<std::size_t>(j * w + i)] = static_cast<float>(0.1 * i + 0.5 * std::abs(j - 4));
+    }
+  }
+  AnalysisOptions options;
+  options.channel_area = 20.0;
+  const Geomorphometry open = *analyze({w, h, 1.0, z, std::nullopt, {}}, options);
+  std::vector<std::uint8_t> wet(z.size(), 0);
+  for (int i = 10; i <= 20; ++i) wet[static_cast<std::size_t>(4 * w + i)] = kStandingWater;
+  const Geomorphometry lake = *analyze({w, h, 1.0, z, std::nullopt, {}, wet}, options);
+  ASSERT_TRUE(open.flint && lake.flint);
+  EXPECT_EQ(open.flint->cells - lake.flint->cells, 11);
+  EXPECT_EQ(open.channel_cells, lake.channel_cells) << "the lake's cells still carry the flow";
+  // Flowing water (a river) stays in the fit.
+  for (int i = 10; i <= 20; ++i) wet[static_cast<std::size_t>(4 * w + i)] = kFlowingWater;
+  EXPECT_EQ(analyze({w, h, 1.0, z, std::nullopt, {}, wet}, options)->flint->cells,
+            open.flint->cells);
+}
+
 class GeomorphometryGeoTiff : public testing::TestWithParam<const char*> {};
 
 // `terrain grid` writes the grid `analyze` evaluates, north up, with its pixel size (a pixel

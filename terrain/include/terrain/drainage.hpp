@@ -26,11 +26,13 @@ struct ElevationGrid {
   std::optional<float> sea_level = {};
   /// Empty, or width * height flags: nonzero marks a cell as water (not land, an outlet).
   std::span<const std::uint8_t> water = {};
-  /// Empty, or width * height flags: nonzero marks land under a lake or river. Flow crosses it
-  /// like any land; the analysis counts no pits or closed depressions there (a lake's floor is a
-  /// depression by nature).
+  /// Empty, or width * height flags: nonzero marks land under water — kFlowingWater (a river)
+  /// or kStandingWater (a lake). Flow crosses it like any land; the analysis counts no pits or
+  /// closed depressions there (a lake's floor is a depression by nature), and leaves standing
+  /// water out of Flint's law (a lake floor's slope is not a river's).
   std::span<const std::uint8_t> wet = {};
 };
+inline constexpr std::uint8_t kFlowingWater = 1, kStandingWater = 2;
 
 /// The eight D8 neighbours' offsets in increasing linear index: the row below, the same row,
 /// the row above (the order every tie-break follows).
