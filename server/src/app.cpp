@@ -247,6 +247,7 @@ App::App(Config config, std::unique_ptr<Store> store)
   if (!config_.disk_cache_dir.empty()) {
     disk_cache_ = std::make_unique<DiskCache>(config_.disk_cache_dir, config_.disk_cache_bytes);
   }
+  share_baked_grids();
   terrain::Result<gpu::BackendChoice> choice = gpu::choose_backend(backend_name(config_.backend));
   if (choice) {
     backend_ = choice->backend;
@@ -704,9 +705,14 @@ void App::store_shared(const std::string& product_key, const CachedProduct& prod
   if (redis_) redis_->insert(key, product);
 }
 
-std::string App::redis_metrics() const {
-  if (!redis_) return "";
+std::string App::cache_metrics() const {
   std::ostringstream out;
+  append_sample(out, "terrain_bake_made_total", "counter",
+                "Baked grids (erosion, drainage) this server computed", bake_cache_.made());
+  append_sample(out, "terrain_bake_shared_hits_total", "counter",
+                "Baked grids this server found in the disk cache or Redis instead of computing",
+                bake_cache_.shared_hits());
+  if (!redis_) return out.str();
   append_sample(out, "terrain_redis_up", "gauge",
                 "1 when the last exchange with the shared Redis cache worked; 0: products are "
                 "generated instead",

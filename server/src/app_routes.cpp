@@ -75,7 +75,7 @@ const std::vector<App::Route>& App::routes() {
         {get, "/metrics", "metrics", Body::none, false,
          [](App& a, const Request& r, const Target&, const M&) -> Outcome {
            Response out = make_response(r, http::status::ok,
-                                        a.metrics_.prometheus(a.cache_) + a.redis_metrics(),
+                                        a.metrics_.prometheus(a.cache_) + a.cache_metrics(),
                                         "text/plain; version=0.0.4");
            out.set(http::field::cache_control, "no-store");
            return out;

@@ -1,6 +1,7 @@
 // Scene versions: parsed (images decoded once per hash), compiled, kept in memory, resolved
 // from refs; and a request body's scene checked as it will be read back before it is stored.
 #include <chrono>
+#include <cstring>
 #include <limits>
 #include <optional>
 
@@ -54,6 +55,24 @@ std::optional<ParsedRef> parse_ref(const std::string& ref) {
 bool still_fresh(bool pinned, std::chrono::steady_clock::time_point remembered,
                  std::chrono::steady_clock::time_point now) {
   return pinned || now - remembered < std::chrono::seconds(1);
+}
+
+/// A baked grid as the shared stores keep it: the SHA-256 (hex) of its bytes, then the bytes.
+/// What comes back is checked against it, so a torn or foreign entry is made again, not used.
+std::string sealed_grid(const std::vector<float>& grid) {
+  const std::string_view bytes(reinterpret_cast<const char*>(grid.data()),
+                               grid.size() * sizeof(float));
+  return terrain::sha256_hex(bytes) + std::string(bytes);
+}
+
+std::optional<std::vector<float>> unsealed_grid(const std::string& body) {
+  constexpr std::size_t kDigest = 64;
+  if (body.size() < kDigest || (body.size() - kDigest) % sizeof(float) != 0) return std::nullopt;
+  const std::string_view bytes = std::string_view(body).substr(kDigest);
+  if (terrain::sha256_hex(bytes) != std::string_view(body).substr(0, kDigest)) return std::nullopt;
+  std::vector<float> grid(bytes.size() / sizeof(float));
+  std::memcpy(grid.data(), bytes.data(), bytes.size());
+  return grid;
 }
 
 }  // namespace
@@ -243,6 +262,36 @@ terrain::Result<LoadedVersion, Response> App::compile_for_storing(const Request&
                    compiled.error().pointer);
   }
   return std::move(compiled).value();
+}
+
+void App::share_baked_grids() {
+  if (!disk_cache_ && !redis_) return;
+  terrain::BakeCache::Shared shared;
+  shared.find = [this](const std::string& key) -> std::optional<std::vector<float>> {
+    const std::string name = "bake/" + key;
+    if (disk_cache_) {
+      if (auto found = disk_cache_->find(name)) {
+        if (auto grid = unsealed_grid(found->body)) return grid;
+      }
+    }
+    if (redis_) {
+      if (auto found = redis_->find(name)) {
+        if (auto grid = unsealed_grid(found->body)) {
+          if (disk_cache_) disk_cache_->insert(name, *found);
+          return grid;
+        }
+      }
+    }
+    return std::nullopt;
+  };
+  shared.insert = [this](const std::string& key, const std::vector<float>& grid) {
+    CachedProduct sealed;
+    sealed.body = sealed_grid(grid);
+    sealed.media_type = "application/octet-stream";
+    if (disk_cache_) disk_cache_->insert("bake/" + key, sealed);
+    if (redis_) redis_->insert("bake/" + key, sealed);  // within Redis's entry size only
+  };
+  bake_cache_.share_with(std::move(shared));
 }
 
 }  // namespace server

@@ -46,8 +46,19 @@ BakeCache::Grid BakeCache::get_or_make(const std::string& key, const std::functi
     in_flight_.insert(key);
   }
   Grid grid;
+  bool from_shared = false;
   try {
-    grid = make();
+    // Another process may have made it (the shared stores); else it is made here, and shared.
+    if (shared_.find) {
+      if (std::optional<std::vector<float>> found = shared_.find(key)) {
+        grid = std::make_shared<const std::vector<float>>(std::move(*found));
+        from_shared = true;
+      }
+    }
+    if (!grid) {
+      grid = make();
+      if (grid && shared_.insert) shared_.insert(key, *grid);
+    }
   } catch (...) {
     std::lock_guard lock(mutex_);
     in_flight_.erase(key);
@@ -56,9 +67,22 @@ BakeCache::Grid BakeCache::get_or_make(const std::string& key, const std::functi
   }
   std::lock_guard lock(mutex_);
   in_flight_.erase(key);
-  if (grid) insert(key, grid);
+  if (grid) {
+    insert(key, grid);
+    ++(from_shared ? shared_hits_ : made_count_);
+  }
   made_.notify_all();
   return grid;
+}
+
+std::int64_t BakeCache::made() const {
+  std::lock_guard lock(mutex_);
+  return made_count_;
+}
+
+std::int64_t BakeCache::shared_hits() const {
+  std::lock_guard lock(mutex_);
+  return shared_hits_;
 }
 
 void BakeCache::insert(const std::string& key, Grid grid) {
@@ -75,6 +99,11 @@ void BakeCache::insert(const std::string& key, Grid grid) {
     bytes_ -= oldest->second.first->size() * sizeof(float);
     entries_.erase(oldest);
   }
+}
+
+void BakeCache::share_with(Shared shared) {
+  std::lock_guard lock(mutex_);
+  shared_ = std::move(shared);
 }
 
 std::size_t BakeCache::bytes() const {

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <map>
+#include <optional>
 #include <string>
 #include <thread>
 #include <utility>
@@ -292,6 +294,38 @@ TEST(ErosionNode, ParsedAgainWithTheCacheGivesTheSameGridWithoutErodingAgain) {
   Result<Scene> uncached = parse_scene_text(kErodedScene);
   ASSERT_TRUE(uncached.ok());
   EXPECT_EQ(first->root->params.pool, uncached->root->params.pool);
+}
+
+TEST(BakeCache, FindsInItsSharedStoresWhatAnotherProcessMade) {
+  // Two processes' caches over one shared store (a stand-in for the disk cache and Redis).
+  std::map<std::string, std::vector<float>> store;
+  const auto sharing = [&store] {
+    BakeCache::Shared shared;
+    shared.find = [&store](const std::string& key) -> std::optional<std::vector<float>> {
+      auto it = store.find(key);
+      if (it == store.end()) return std::nullopt;
+      return it->second;
+    };
+    shared.insert = [&store](const std::string& key, const std::vector<float>& grid) {
+      store[key] = grid;
+    };
+    return shared;
+  };
+  BakeCache first(64 << 20), second(64 << 20);
+  first.share_with(sharing());
+  second.share_with(sharing());
+  ParseOptions options;
+  options.bake_cache = &first;
+  Result<Scene> made = parse_scene_text(kErodedScene, options);
+  ASSERT_TRUE(made.ok());
+  EXPECT_EQ(first.made(), 1);
+  EXPECT_EQ(store.size(), 1u);
+  options.bake_cache = &second;
+  Result<Scene> found = parse_scene_text(kErodedScene, options);
+  ASSERT_TRUE(found.ok());
+  EXPECT_EQ(second.made(), 0);
+  EXPECT_EQ(second.shared_hits(), 1);
+  EXPECT_EQ(made->root->params.pool, found->root->params.pool);
 }
 
 TEST(ErosionNode, ParsedWithoutBakingHasItsHashButDoesNotCompile) {

@@ -262,6 +262,8 @@ class App {
   terrain::Result<LoadedVersion, Response> compile_for_storing(const Request& request);
   /// Keeps a compiled version for the products of its hash (bounded).
   void keep_loaded(const LoadedVersion& loaded);
+  /// Gives the bake cache the disk cache and Redis, when configured, as shared stores of grids.
+  void share_baked_grids();
   /// An uploaded image decoded, shared by every scene and version that uses it (bounded).
   terrain::Result<std::shared_ptr<const terrain::Raster>> decoded_image(const std::string& hash);
   terrain::Result<LoadedVersion, Response> load_version(const Request& request,
@@ -284,7 +286,7 @@ class App {
   /// Stores a new product in the caches behind the in-memory LRU.
   void store_shared(const std::string& key, const CachedProduct& product);
   /// The Redis lines of /metrics.
-  std::string redis_metrics() const;
+  std::string cache_metrics() const;
   StaticFiles client_;
   std::shared_ptr<terrain::PointsBackend> backend_;  ///< null: the CPU
   std::string backend_reason_;

@@ -71,6 +71,19 @@ class BakeCache {
   Grid get_or_make(const std::string& key, const std::function<Grid()>& make);
   std::size_t bytes() const;
 
+  /// Stores beyond this process (a server's disk cache, Redis), by the same content key: a
+  /// memory miss looks there before making the grid, and a grid made here is given to them, so
+  /// a replica or a restart does not make again what another made. Either may be empty.
+  struct Shared {
+    std::function<std::optional<std::vector<float>>(const std::string& key)> find;
+    std::function<void(const std::string& key, const std::vector<float>& grid)> insert;
+  };
+  /// Set before the cache is first used.
+  void share_with(Shared shared);
+  /// Grids made in this process, and grids found in the shared stores instead.
+  std::int64_t made() const;
+  std::int64_t shared_hits() const;
+
  private:
   void insert(const std::string& key, Grid grid);  // mutex_ held
 
@@ -81,6 +94,9 @@ class BakeCache {
   std::size_t bytes_ = 0;
   std::uint64_t clock_ = 0;
   std::map<std::string, std::pair<Grid, std::uint64_t>, std::less<>> entries_;
+  Shared shared_;
+  std::int64_t made_count_ = 0;
+  std::int64_t shared_hits_ = 0;
 };
 
 struct ParseOptions {
