@@ -187,7 +187,9 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
   for (std::size_t c = 0; c < n; ++c) {
     if (out.channel[c] == 0) continue;
     const double reach = half_width[c] + depth[c] / p.bank_slope;
-    const int radius = std::min(kMaxCarveRadius, static_cast<int>(std::ceil(reach / cell - 1e-9)));
+    // Clamped before the cast: a huge width over tiny cells is no integer.
+    const int radius = static_cast<int>(
+        std::min(static_cast<double>(kMaxCarveRadius), std::ceil(reach / cell - 1e-9)));
     const int ci = static_cast<int>(c % static_cast<std::size_t>(w));
     const int cj = static_cast<int>(c / static_cast<std::size_t>(w));
     for (int nj = std::max(cj - radius, 0); nj <= std::min(cj + radius, h - 1); ++nj) {
