@@ -320,6 +320,22 @@ TEST(DrainageNode, ParsedAgainWithTheCacheGivesTheSameGrids) {
   EXPECT_EQ(a->water->children.at(1)->params.pool, b->water->children.at(1)->params.pool);
 }
 
+TEST(DrainageNode, TakesExtremeParametersWithinTheirRanges) {
+  // A metre-wide square with channels as wide as allowed: the carve's reach is clamped.
+  for (const double width : {1e-3, 1e4}) {
+    nlohmann::json doc = nlohmann::json::parse(kDrainedScene);
+    doc["root"]["size"] = 1.0;
+    doc["root"]["resolution"] = 16;
+    doc["root"]["channel_area"] = 1.0;
+    doc["root"]["width"] = width;
+    doc["root"]["depth"] = 1e3;
+    doc["root"]["bank_slope"] = 0.05;
+    Result<Scene> scene = parse_scene(doc);
+    ASSERT_TRUE(scene.ok()) << scene.error().pointer << ": " << scene.error().message;
+    EXPECT_TRUE(compile(*scene).ok());
+  }
+}
+
 TEST(DrainageNodeRefuses, ParametersOutOfRangeNamingTheField) {
   for (const auto& [field, value] :
        std::vector<std::pair<std::string, std::string>>{{"channel_area", "-5"},
