@@ -95,8 +95,9 @@ TEST_F(HttpApi, SceneListHoldsTheBuiltInScenes) {
     EXPECT_GE(s["version"].get<int>(), 1);
     EXPECT_EQ(s["url"], "/api/v1/scenes/" + s["id"].get<std::string>());
   }
-  for (const char* id : {"alpine-valleys", "butte", "coastal-range", "craters", "hills-river",
-                         "lake-dunes", "mountain-range", "river-basin", "river-lake", "winding-road"}) {
+  for (const char* id :
+       {"alpine-valleys", "butte", "coastal-range", "craters", "hills-river", "lake-dunes",
+        "mountain-range", "river-basin", "river-lake", "winding-road"}) {
     EXPECT_TRUE(ids.contains(id)) << id;
   }
 }
@@ -166,14 +167,34 @@ TEST_F(HttpApi, SampleGivesElevationWeightGradientAndLipschitzBound) {
 }
 
 TEST_F(HttpApi, SampleSaysWhereADrainagesLakeAndRiversAre) {
-  // river-lake's lake fills the basin dug at (1500, 100); the ridges are dry.
-  const json lake = body_json(get("/api/v1/scenes/river-lake/sample?x=1500&y=100"));
-  ASSERT_TRUE(lake["water"].is_object()) << lake.dump();
-  EXPECT_TRUE(lake["water"]["wet"].get<bool>()) << lake.dump();
-  EXPECT_GT(lake["water"]["surface"].get<double>(), lake["elevation"].get<double>());
-  const json ridge = body_json(get("/api/v1/scenes/river-lake/sample?x=-2500&y=2800"));
-  EXPECT_FALSE(ridge["water"]["wet"].get<bool>()) << ridge.dump();
-  EXPECT_TRUE(ridge["water"]["surface"].is_null());
+  // A dome with a bowl dug into its top, drained on a small grid: the bowl holds a lake.
+  const json scene = {
+      {"format", "terrain-scene/1"},
+      {"root",
+       {{"type", "drainage"},
+        {"resolution", 64},
+        {"center", {0, 0}},
+        {"size", 2000},
+        {"channel_area", 20000},
+        {"children",
+         {{{"type", "add"},
+           {"children",
+            {{{"type", "disc"}, {"center", {0, 0}}, {"radius", 1400}, {"elevation", 400}},
+             {{"type", "disc"}, {"center", {0, 0}}, {"radius", 400}, {"elevation", -80}}}}}}}}}};
+  const Response created = fetch("POST", "/api/v1/scenes?id=drained", with_token(), scene.dump());
+  ASSERT_EQ(created.result_int(), 201u) << created.body();
+  const Response lake = get("/api/v1/scenes/drained/sample?x=0&y=0");
+  ASSERT_EQ(lake.result_int(), 200u) << lake.body();
+  const json wet = body_json(lake);
+  ASSERT_TRUE(wet.at("water").is_object()) << wet.dump();
+  EXPECT_TRUE(wet["water"].at("wet").get<bool>()) << wet.dump();
+  EXPECT_GT(wet["water"].at("surface").get<double>(), wet.at("elevation").get<double>());
+  // The dome's flank is dry.
+  const Response flank = get("/api/v1/scenes/drained/sample?x=700&y=300");
+  ASSERT_EQ(flank.result_int(), 200u) << flank.body();
+  const json dry = body_json(flank);
+  EXPECT_FALSE(dry["water"].at("wet").get<bool>()) << dry.dump();
+  EXPECT_TRUE(dry["water"].at("surface").is_null());
 }
 
 TEST_F(HttpApi, LayerJsonDescribesPinnedQuantizedMeshTiles) {
