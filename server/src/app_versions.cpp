@@ -210,7 +210,10 @@ terrain::Result<LoadedVersion, Response> App::resolve(const Request& request,
     if (loaded) {
       std::lock_guard lock(versions_mutex_);
       if (resolved_.size() >= 4096) resolved_.clear();
-      resolved_[key] = {*loaded, now};
+      // Stamped when the load ends, not when the request came: a load longer than a head's
+      // freshness (a large erosion's bake) would otherwise be stale on arrival, and the request
+      // it was made for would find its version "not loaded" again and be refused as busy.
+      resolved_[key] = {*loaded, std::chrono::steady_clock::now()};
     }
     return loaded;
   };
