@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "../tests/terrain/synthetic_land.hpp"
 #include "terrain/erosion.hpp"
 #include "terrain/rivers.hpp"
 
@@ -17,39 +18,9 @@ namespace {
 
 using namespace terrain;
 
-double lattice(int i, int j, int seed) {
-  std::uint32_t x = static_cast<std::uint32_t>(i) * 73856093u ^
-                    static_cast<std::uint32_t>(j) * 19349663u ^
-                    static_cast<std::uint32_t>(seed) * 83492791u;
-  x ^= x >> 13;
-  x *= 0x5bd1e995u;
-  x ^= x >> 15;
-  return static_cast<double>(x & 0xffffffu) / 16777215.0;
-}
-
+/// The tests' rough land (tests/terrain/synthetic_land.hpp) at 500 × its octave sum.
 std::vector<float> rough_land(int side) {
-  std::vector<float> z(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
-  const double cell = 4000.0 / (side - 1);
-  for (int j = 0; j < side; ++j) {
-    for (int i = 0; i < side; ++i) {
-      double e = 0.0, amplitude = 1.0, frequency = 1.0 / 1500.0;
-      for (int o = 0; o < 8; ++o) {
-        const double x = i * cell * frequency, y = j * cell * frequency;
-        const double fi = std::floor(x), fj = std::floor(y);
-        double fx = x - fi, fy = y - fj;
-        fx = fx * fx * (3 - 2 * fx);
-        fy = fy * fy * (3 - 2 * fy);
-        const int a = static_cast<int>(fi), b = static_cast<int>(fj);
-        e += amplitude * ((lattice(a, b, o) * (1 - fx) + lattice(a + 1, b, o) * fx) * (1 - fy) +
-                          (lattice(a, b + 1, o) * (1 - fx) + lattice(a + 1, b + 1, o) * fx) * fy);
-        amplitude *= 0.5;
-        frequency *= 2.0;
-      }
-      z[static_cast<std::size_t>(j) * static_cast<std::size_t>(side) +
-        static_cast<std::size_t>(i)] = static_cast<float>(100.0 + 500.0 * e);
-    }
-  }
-  return z;
+  return terrain::testing::rough_land(side, 500.0);
 }
 
 void BM_Erosion(benchmark::State& state) {
@@ -92,6 +63,11 @@ void BM_Drainage(benchmark::State& state) {
   state.counters["channel_cells"] = static_cast<double>(channel_cells);
   state.SetItemsProcessed(state.iterations() * side * side);
 }
-BENCHMARK(BM_Drainage)->Arg(512)->Arg(1024)->Arg(2048)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_Drainage)
+    ->Arg(512)
+    ->Arg(1024)
+    ->Arg(2048)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 
 }  // namespace

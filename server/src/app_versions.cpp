@@ -58,7 +58,8 @@ bool still_fresh(bool pinned, std::chrono::steady_clock::time_point remembered,
 }
 
 /// A baked grid as the shared stores keep it: the SHA-256 (hex) of its bytes, then the bytes.
-/// What comes back is checked against it, so a torn or foreign entry is made again, not used.
+/// The stores check an entry's framing only; a grid's floats include offsets the evaluators
+/// index with, so its content is checked too, and a damaged entry is made again, not used.
 std::string sealed_grid(const std::vector<float>& grid) {
   const std::string_view bytes(reinterpret_cast<const char*>(grid.data()),
                                grid.size() * sizeof(float));

@@ -126,8 +126,7 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
     ground[c] = filled ? d.filled[c] : static_cast<double>(grid.elevation[c]);
   }
 
-  // Channels: land outside lakes draining at least the threshold area. Their beds and water,
-  // lowered where needed so each lies δ below the one upstream (upstream first).
+  // Channels: land outside lakes draining at least the threshold area, sized by their area.
   out.channel.assign(n, 0);
   out.downstream.assign(n, -1);
   std::vector<double> bed(n, 0.0), water(n, 0.0), half_width(n, 0.0), depth(n, 0.0);
@@ -167,14 +166,18 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
     bed[c] = ground[c] - depth[c];
     water[c] = bed[c] + kWaterShareOfDepth * depth[c];
   }
-  for (std::size_t k = n; k-- > 0;) {
-    const auto c = static_cast<std::size_t>(d.order[k]);
-    const std::int32_t r = out.downstream[c];
-    if (r < 0) continue;
-    const auto rc = static_cast<std::size_t>(r);
-    bed[rc] = std::min(bed[rc], bed[c] - delta);
-    water[rc] = std::min(water[rc], water[c] - delta);
-  }
+  // Each channel cell's value at least δ below the one upstream: lowered downstream (upstream
+  // first, so a cell has all its donors' before it passes its own on), never raised.
+  const auto descend = [&](std::vector<double>& v) {
+    for (std::size_t k = n; k-- > 0;) {
+      const auto c = static_cast<std::size_t>(d.order[k]);
+      if (const std::int32_t r = out.downstream[c]; r >= 0) {
+        v[static_cast<std::size_t>(r)] = std::min(v[static_cast<std::size_t>(r)], v[c] - delta);
+      }
+    }
+  };
+  descend(bed);
+  descend(water);
 
   // The carve: each channel cell's cross-section — a floor of its width sloping gently to the
   // centre line, banks beyond — cut into the ground around it. A cell takes the section it lies
@@ -218,14 +221,8 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
   }
   std::vector<double> carved_ground(n);
   for (std::size_t c = 0; c < n; ++c) carved_ground[c] = std::min(ground[c], carved[c]);
-  // Beds stay below the ones upstream however the ground rounds: lowered downstream, not raised.
-  for (std::size_t k = n; k-- > 0;) {
-    const auto c = static_cast<std::size_t>(d.order[k]);
-    const std::int32_t r = out.downstream[c];
-    if (r < 0) continue;
-    const auto rc = static_cast<std::size_t>(r);
-    carved_ground[rc] = std::min(carved_ground[rc], carved_ground[c] - delta);
-  }
+  // Beds stay below the ones upstream whatever sections cut beside them.
+  descend(carved_ground);
 
   // In float32: every land cell outside lakes and the sea drains. Routed again with the lakes as
   // water, a cell not above its receiver (rounding, a pocket the sections left) is raised four

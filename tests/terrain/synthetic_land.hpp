@@ -1,5 +1,5 @@
-// Deterministic synthetic land for the erosion and drainage tests: value noise from an integer
-// hash, summed over octaves.
+// Deterministic synthetic land for the erosion and drainage tests and benchmarks: value noise
+// from an integer hash, summed over octaves.
 #pragma once
 
 #include <cmath>
@@ -31,8 +31,9 @@ inline double value_noise(double x, double y, int seed) {
   return (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy;
 }
 
-/// Rough land: eight octaves of value noise, about 1.4 km of relief over a 4 km square.
-inline std::vector<float> rough_land(int side) {
+/// Rough land: eight octaves of value noise over a 4 km square, 100 m plus `scale` times a sum
+/// that spans about 1.3 (the default: about 1.4 km of relief).
+inline std::vector<float> rough_land(int side, double scale = 1050.0) {
   std::vector<float> z(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
   const double cell = 4000.0 / (side - 1);
   for (int j = 0; j < side; ++j) {
@@ -44,7 +45,7 @@ inline std::vector<float> rough_land(int side) {
         frequency *= 2.0;
       }
       z[static_cast<std::size_t>(j) * static_cast<std::size_t>(side) +
-        static_cast<std::size_t>(i)] = static_cast<float>(100.0 + 1050.0 * e);
+        static_cast<std::size_t>(i)] = static_cast<float>(100.0 + scale * e);
     }
   }
   return z;

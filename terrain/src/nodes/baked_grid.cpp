@@ -78,6 +78,13 @@ void pack_local_bounds(const std::vector<float>& h, int n, double side, std::vec
   }
 }
 
+/// Nodes of a subtree with references expanded (a shared subtree counts once per use).
+std::int64_t expanded_nodes(const Node& node) {
+  std::int64_t count = 1;
+  for (const NodePtr& child : node.children) count += expanded_nodes(*child);
+  return count;
+}
+
 }  // namespace
 
 Vec2 GridSquare::south_west() const {
@@ -110,12 +117,6 @@ std::optional<GridSquare> read_grid_square(FieldReader& reader, const ParseConte
   square.margin = static_cast<float>(reader.number("margin", 0.02, {0.001, 0.5}));
   if (!reader.ok()) return std::nullopt;
   return square;
-}
-
-std::int64_t expanded_nodes(const Node& node) {
-  std::int64_t count = 1;
-  for (const NodePtr& child : node.children) count += expanded_nodes(*child);
-  return count;
 }
 
 std::vector<float> sample_child(const Node& child, float base_elevation, const GridSquare& square) {
@@ -163,12 +164,38 @@ std::vector<float> sample_child(const Node& child, float base_elevation, const G
   return out;
 }
 
-std::string baked_grid_key(std::string_view kind, const nlohmann::json& canonical,
-                           float base_elevation, const Node& child) {
-  std::string content =
-      std::string(kind) + " " + canonical.dump() + " base " + std::to_string(base_elevation) + " ";
-  append_content(child, content);
-  return sha256_hex(content);
+Status charge_bake(ParseContext& context, const std::string& pointer, std::int64_t work,
+                   const GridSquare& square) {
+  const SceneLimits& limits = context.options->limits;
+  const std::int64_t samples = std::int64_t{square.resolution} * square.resolution;
+  context.erosion_work += work;
+  context.erosion_evaluations += samples * expanded_nodes(*context.children.front());
+  if (context.erosion_work > limits.max_erosion_work) {
+    return Error{"the scene's erosion and drainage would take " +
+                     std::to_string(context.erosion_work) +
+                     " cell-steps (resolution² × steps over their grids), more than the limit of " +
+                     std::to_string(limits.max_erosion_work) + ": lower resolution or iterations",
+                 pointer_join(pointer, "resolution"), ErrorKind::unsupported};
+  }
+  if (context.erosion_evaluations > limits.max_erosion_evaluations) {
+    return Error{"sampling the subtrees to bake would take " +
+                     std::to_string(context.erosion_evaluations) +
+                     " node evaluations, more than the limit of " +
+                     std::to_string(limits.max_erosion_evaluations),
+                 pointer_join(pointer, "resolution"), ErrorKind::unsupported};
+  }
+  return Ok{};
+}
+
+BakeCache::Grid bake_grid(const ParseContext& context, std::string_view kind,
+                          const nlohmann::json& canonical,
+                          const std::function<BakeCache::Grid()>& make) {
+  BakeCache* cache = context.options->bake_cache;
+  if (cache == nullptr) return make();
+  std::string content = std::string(kind) + " " + canonical.dump() + " base " +
+                        std::to_string(context.base_elevation) + " ";
+  append_content(*context.children.front(), content);
+  return cache->get_or_make(sha256_hex(content), make);
 }
 
 Result<std::vector<float>> pack_baked_grid(std::vector<float> samples, int side,

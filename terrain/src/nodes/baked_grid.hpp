@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,17 +33,22 @@ struct GridSquare {
 std::optional<GridSquare> read_grid_square(FieldReader& reader, const ParseContext& context,
                                            int default_resolution);
 
-/// Nodes of a subtree with references expanded (a shared subtree counts once per use).
-std::int64_t expanded_nodes(const Node& node);
+/// Adds a baking node's cost to the scene's — `work` cell-steps of its solver, and the node
+/// evaluations that sampling its child on the square takes — and refuses it, as unsupported and
+/// naming the node's `resolution`, when the scene's bakes together pass the limits.
+Status charge_bake(ParseContext& context, const std::string& pointer, std::int64_t work,
+                   const GridSquare& square);
 
 /// The child's surface over the square as a raster (row 0 north): α f + (1 − α) base, sampled
 /// at the grid's own level of detail so the grid does not alias finer detail.
 std::vector<float> sample_child(const Node& child, float base_elevation, const GridSquare& square);
 
-/// The bake cache's key for a grid made by `kind` (with its version) from the node's canonical
-/// fields, the base elevation and the child subtree's bytes.
-std::string baked_grid_key(std::string_view kind, const nlohmann::json& canonical,
-                           float base_elevation, const Node& child);
+/// A baking node's grid: found in the parse's bake cache by the content hash of `kind` (with its
+/// version), the node's canonical fields, the base elevation and the child subtree's bytes, or
+/// made by `make` there; made directly when the parse has no cache.
+BakeCache::Grid bake_grid(const ParseContext& context, std::string_view kind,
+                          const nlohmann::json& canonical,
+                          const std::function<BakeCache::Grid()>& make);
 
 /// An image primitive's pool for a raster of side² samples (row 0 north) on the square: bicubic,
 /// affinely mapped, and — with `local_bounds` — the table that baked_grid_bounds reads. Fails

@@ -26,7 +26,6 @@ BakeCache::Grid join(std::vector<float> ground, const std::vector<float>& water)
 }
 
 Result<NodeParams> parse_drainage(FieldReader& reader, ParseContext& context) {
-  const SceneLimits& limits = context.options->limits;
   const Node& child = *context.children.front();
   if (context.in_water_tree) {
     return Error{
@@ -59,20 +58,10 @@ Result<NodeParams> parse_drainage(FieldReader& reader, ParseContext& context) {
   if (!reader.ok()) return reader.error();
 
   // The cost first, in the erosion budget: refused before anything is sampled.
-  context.erosion_work += kWorkPerCell * resolution * resolution;
-  context.erosion_evaluations += std::int64_t{resolution} * resolution * expanded_nodes(child);
-  if (context.erosion_work > limits.max_erosion_work) {
-    return Error{"the scene's erosion and drainage would take " +
-                     std::to_string(context.erosion_work) + " cell-steps, more than the limit of " +
-                     std::to_string(limits.max_erosion_work) + ": lower resolution",
-                 pointer_join(reader.pointer(), "resolution"), ErrorKind::unsupported};
-  }
-  if (context.erosion_evaluations > limits.max_erosion_evaluations) {
-    return Error{"sampling the drained subtree would take " +
-                     std::to_string(context.erosion_evaluations) +
-                     " node evaluations, more than the limit of " +
-                     std::to_string(limits.max_erosion_evaluations),
-                 pointer_join(reader.pointer(), "resolution"), ErrorKind::unsupported};
+  if (Status charged =
+          charge_bake(context, reader.pointer(), kWorkPerCell * resolution * resolution, *square);
+      !charged) {
+    return charged.error();
   }
 
   NodeParams out;
@@ -106,12 +95,7 @@ Result<NodeParams> parse_drainage(FieldReader& reader, ParseContext& context) {
       if (!ground || !water) return nullptr;
       return join(std::move(*ground), *water);
     };
-    if (BakeCache* cache = context.options->bake_cache) {
-      grid = cache->get_or_make(
-          baked_grid_key("drainage/1", out.canonical, context.base_elevation, child), bake);
-    } else {
-      grid = bake();
-    }
+    grid = bake_grid(context, "drainage/1", out.canonical, bake);
   }
   if (!grid) {
     return Error{"the drainage grids could not be made", reader.pointer(), ErrorKind::internal};

@@ -11,7 +11,6 @@ namespace terrain {
 namespace {
 
 Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
-  const SceneLimits& limits = context.options->limits;
   const Node& child = *context.children.front();
   const std::optional<GridSquare> square = read_grid_square(reader, context, 256);
   if (!square) return reader.error();
@@ -27,23 +26,10 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
   if (!reader.ok()) return reader.error();
 
   // The cost first: refused before anything is sampled.
-  const std::int64_t work = erosion_work(resolution, resolution, p.iterations);
-  const std::int64_t evaluations = std::int64_t{resolution} * resolution * expanded_nodes(child);
-  context.erosion_work += work;
-  context.erosion_evaluations += evaluations;
-  if (context.erosion_work > limits.max_erosion_work) {
-    return Error{"the scene's erosion would take " + std::to_string(context.erosion_work) +
-                     " cell-steps (resolution² × iterations over its grids), more than the limit "
-                     "of " +
-                     std::to_string(limits.max_erosion_work) + ": lower resolution or iterations",
-                 pointer_join(reader.pointer(), "resolution"), ErrorKind::unsupported};
-  }
-  if (context.erosion_evaluations > limits.max_erosion_evaluations) {
-    return Error{"sampling the eroded subtree would take " +
-                     std::to_string(context.erosion_evaluations) +
-                     " node evaluations, more than the limit of " +
-                     std::to_string(limits.max_erosion_evaluations),
-                 pointer_join(reader.pointer(), "resolution"), ErrorKind::unsupported};
+  if (Status charged = charge_bake(context, reader.pointer(),
+                                   erosion_work(resolution, resolution, p.iterations), *square);
+      !charged) {
+    return charged.error();
   }
 
   NodeParams out;
@@ -81,13 +67,7 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
     if (!pool) return nullptr;
     return std::make_shared<const std::vector<float>>(std::move(*pool));
   };
-  BakeCache::Grid grid;
-  if (BakeCache* cache = context.options->bake_cache) {
-    grid = cache->get_or_make(
-        baked_grid_key("erosion/1", out.canonical, context.base_elevation, child), bake);
-  } else {
-    grid = bake();
-  }
+  const BakeCache::Grid grid = bake_grid(context, "erosion/1", out.canonical, bake);
   if (!grid) {
     return Error{"the erosion grid could not be made", reader.pointer(), ErrorKind::internal};
   }
