@@ -231,7 +231,7 @@ def mesa_image():
 
 
 def erosion(children, size, **params):
-    return {"type": "erosion", "resolution": 512, "center": [0, 0], "size": size, "diffusion": 0.2,
+    return {"type": "erosion", "resolution": 512, "center": [0, 0], "size": size, "diffusion": 6,
             "talus_angle": 65, **params,
             "children": [{"type": "blend", "children": children}]}
 
@@ -320,7 +320,9 @@ def river_lake():
                               "seed": 90 + i}})
     floor = {"type": "disc", "center": [0, 0], "radius": 7000, "elevation": 200,
              "noise": {"kind": "fbm", "amplitude": 80, "wavelength": 1700, "octaves": 6, "seed": 9}}
-    valley = erosion([floor] + rim, 8000, uplift=0.6, strength=0.3, concavity=0.5)
+    # Less hillslope diffusion than the other valleys: it would round the heads of the channels
+    # that the drainage then carves, and their slopes would follow drainage area less.
+    valley = erosion([floor] + rim, 8000, uplift=0.6, strength=0.3, concavity=0.5, diffusion=1)
     # A glacial basin dug into the trunk's valley behind a rock sill: the drainage keeps it as a
     # lake, and the trunk leaves it over the sill.
     basin = {"type": "add", "children": [

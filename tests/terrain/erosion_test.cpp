@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstring>
 #include <map>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <thread>
@@ -112,6 +113,45 @@ TEST(Erosion, IsTheSameBitsEveryTimeAndOnEveryThread) {
   EXPECT_EQ(0, std::memcmp(first.data(), on_thread.data(), first.size() * sizeof(float)));
 }
 
+// Plain D8 drains every cell of a plane sloping between east and north-east the same way, along
+// the diagonal: parallel channels 18° off the slope. Rho8 routing drains it down its aspect.
+TEST(Erosion, ChannelsOnAPlaneRunDownItsSlopeNotAlongTheGrid) {
+  const int side = 128;
+  const auto at = [&](int i, int j) { return static_cast<std::size_t>(j) * side + i; };
+  std::vector<float> plane(static_cast<std::size_t>(side) * side);
+  for (int j = 0; j < side; ++j) {
+    for (int i = 0; i < side; ++i) plane[at(i, j)] = static_cast<float>(1000.0 - 6.0 * (2 * i + j));
+  }
+  const double aspect_degrees = std::atan2(1.0, 2.0) * 180.0 / std::numbers::pi;
+  ErosionParams params;
+  params.uplift = 0.0;
+  const std::vector<float> after = erode_or_die(grid_of(plane, side), params);
+  // The mean steepest-descent direction of the result's interior cells.
+  double sum_i = 0.0, sum_j = 0.0;
+  for (int j = 1; j + 1 < side; ++j) {
+    for (int i = 1; i + 1 < side; ++i) {
+      double steepest = 0.0;
+      int down_i = 0, down_j = 0;
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          const double slope = (after[at(i, j)] - after[at(i + di, j + dj)]) / std::hypot(di, dj);
+          if ((di != 0 || dj != 0) && slope > steepest) {
+            steepest = slope;
+            down_i = di;
+            down_j = dj;
+          }
+        }
+      }
+      if (steepest > 0.0) {
+        sum_i += down_i / std::hypot(down_i, down_j);
+        sum_j += down_j / std::hypot(down_i, down_j);
+      }
+    }
+  }
+  const double mean_degrees = std::atan2(sum_j, sum_i) * 180.0 / std::numbers::pi;
+  EXPECT_NEAR(mean_degrees, aspect_degrees, 5.0);
+}
+
 TEST(Erosion, LevelsHalveTheGridAndSpendTheStepsWhereCellsAreFew) {
   const std::vector<ErosionLevel> levels = erosion_levels(1024, 1024, 24);
   ASSERT_EQ(levels.size(), 4u);
@@ -120,7 +160,9 @@ TEST(Erosion, LevelsHalveTheGridAndSpendTheStepsWhereCellsAreFew) {
   EXPECT_EQ(levels[3].steps, 24);
   EXPECT_EQ(levels[0].steps, 2);
   EXPECT_EQ(erosion_levels(40, 40, 5).size(), 1u);
-  EXPECT_EQ(erosion_work(40, 40, 5), 40 * 40 * 5);
+  EXPECT_EQ(erosion_work(40, 40, 5, 0.0), 40 * 40 * 5);
+  // Diffusion 1 runs in five sub-steps of 0.2, 32 of them charged as one cell-step.
+  EXPECT_EQ(erosion_work(40, 40, 5, 1.0), 40 * 40 * 5 + 40 * 40 * 5 * 5 / 32);
 }
 
 TEST(Erosion, PortablePowAgreesWithLibm) {
@@ -153,7 +195,7 @@ TEST(ErosionRefuses, ParametersOutOfRangeNamingTheField) {
   p.uplift = std::nan("");
   EXPECT_EQ(refused(p), "/uplift");
   p = {};
-  p.diffusion = 0.3;
+  p.diffusion = kMaxDiffusion + 0.5;
   EXPECT_EQ(refused(p), "/diffusion");
   p = {};
   p.talus_angle = 90.0;

@@ -35,7 +35,7 @@ inline constexpr int kMaxErosionSide = 2048;
 inline constexpr int kMaxErosionIterations = 400;
 inline constexpr double kMaxErosionStrength = 1000.0;
 inline constexpr double kMinConcavity = 0.1, kMaxConcavity = 1.0;
-inline constexpr double kMaxDiffusion = 0.25;  ///< the explicit scheme's stability limit
+inline constexpr double kMaxDiffusion = 16.0;  ///< run in explicit sub-steps of at most 0.2
 inline constexpr double kMinTalusAngle = 1.0, kMaxTalusAngle = 89.0;
 
 /// The grids one solve walks, finest first: each coarser one halves the side (rounding up) while
@@ -47,8 +47,9 @@ struct ErosionLevel {
 };
 std::vector<ErosionLevel> erosion_levels(int width, int height, int iterations);
 
-/// Cell-steps the solve runs (Σ width·height·steps over its levels): what limits compare.
-std::int64_t erosion_work(int width, int height, int iterations);
+/// Cell-steps the solve runs (Σ width·height·steps over its levels, 32 diffusion sub-steps
+/// counted as one): what limits compare.
+std::int64_t erosion_work(int width, int height, int iterations, double diffusion);
 
 /// Refuses parameters outside their ranges and grids outside kMinErosionSide..kMaxErosionSide,
 /// naming the field (/iterations, /strength, /concavity, /uplift, /diffusion, /talus_angle,

@@ -19,10 +19,11 @@ namespace terrain {
 
 /// The generation of every product's bytes (tiles, meshes, pictures, of scenes and planets).
 /// Raised whenever the bytes made for the same input change: an encoder, the sampler, the
-/// tracer, planet refinement. Shared caches and ETags carry it, so that during a rolling upgrade
-/// no two servers answer one immutable URL with different bytes. The product goldens
-/// (tests/terrain/goldens, tests/planet/goldens) refuse new hashes under an old generation.
-inline constexpr int kProductGeneration = 1;
+/// tracer, planet refinement, the erosion and drainage solvers. Shared caches, baked grids and
+/// ETags carry it, so that during a rolling upgrade no two servers answer one immutable URL with
+/// different bytes. The product goldens (tests/terrain/goldens, tests/planet/goldens) refuse new
+/// hashes under an old generation. 2: erosion routes by Rho8 and sub-steps its diffusion.
+inline constexpr int kProductGeneration = 2;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB

@@ -9,6 +9,7 @@
 #include "terrain/erosion.hpp"
 #include "terrain/evaluate.hpp"
 #include "terrain/program.hpp"
+#include "terrain/tile_products.hpp"
 
 namespace terrain {
 namespace {
@@ -192,7 +193,10 @@ BakeCache::Grid bake_grid(const ParseContext& context, std::string_view kind,
                           const std::function<BakeCache::Grid()>& make) {
   BakeCache* cache = context.options->bake_cache;
   if (cache == nullptr) return make();
-  std::string content = std::string(kind) + " " + canonical.dump() + " base " +
+  // The product generation changes with the solvers' arithmetic: a grid made by an older one is
+  // never found (in the disk cache or Redis) for a newer one.
+  std::string content = std::string(kind) + " g" + std::to_string(kProductGeneration) + " " +
+                        canonical.dump() + " base " +
                         std::to_string(context.base_elevation) + " ";
   append_content(*context.children.front(), content);
   return cache->get_or_make(sha256_hex(content), make);

@@ -27,7 +27,7 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
 
   // The cost first: refused before anything is sampled.
   if (Status charged = charge_bake(context, reader.pointer(),
-                                   erosion_work(resolution, resolution, p.iterations), *square);
+                                   erosion_work(resolution, resolution, p.iterations, p.diffusion), *square);
       !charged) {
     return charged.error();
   }
