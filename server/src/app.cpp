@@ -237,7 +237,10 @@ App::App(Config config, std::unique_ptr<Store> store)
       store_(std::move(store)),
       cache_(config_.cache_bytes),
       bake_cache_(static_cast<std::size_t>(config_.bake_cache_bytes)),
-      client_(StaticFiles::load(config_.client_dir)) {
+      client_(StaticFiles::load(config_.client_dir)),
+      versions_(*store_, [this](const std::string& text) {
+        return compile_scene(text, SceneSource::stored);
+      }) {
   if (RedisCache::Options redis;
       !config_.redis_url.empty() && RedisCache::parse_url(config_.redis_url, redis)) {
     redis.ttl_seconds = config_.redis_ttl_seconds;

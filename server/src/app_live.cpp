@@ -423,7 +423,7 @@ StoreResult<SceneVersion> App::commit_version(const Request& context, LiveHub::C
   if (!previous) return previous.error();
   StoreResult<SceneVersion> stored = store_->add_version(id, next, expected_head);
   if (!stored) return stored;
-  forget_head(id);
+  versions_.forget_head(id);
   stored->canonical_json = next.canonical_json;
   auto event = text(version_event(context, *stored, *previous));
   publish_version(id, channel, stored->version, event);
@@ -504,7 +504,7 @@ void App::on_remote_event(const std::string& scene, const std::string& event_tex
     return;
   }
   const std::int64_t version = event["version"].get<std::int64_t>();
-  forget_head(scene);  // the head moved on another replica
+  versions_.forget_head(scene);  // the head moved on another replica
   auto channel = live_.channel(scene);
   auto held = channel->lock();
   if (channel->size() == 0) {
@@ -521,7 +521,7 @@ void App::sweep_heads() {
     auto channel = live_.channel(scene);
     auto held = channel->lock();
     if (head->version > channel->last()) {
-      forget_head(scene);
+      versions_.forget_head(scene);
       publish_version(scene, *channel, head->version, nullptr);
     }
   }

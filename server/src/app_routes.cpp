@@ -248,7 +248,7 @@ Outcome App::route(const Request& request, const Target& target) {
     const std::optional<RouteMatch> match = route.match(segments);
     // Parsing and compiling a version (decoding its images) is work for the pool, not for an
     // I/O thread: a read of a version not loaded yet goes there whole, once.
-    if (route.loads_version && !is_loaded(match->ref)) {
+    if (route.loads_version && !versions_.is_loaded(match->ref)) {
       Deferred load;
       load.prepare = [this, copy = std::make_shared<const Request>(request),
                       ref = match->ref]() -> std::optional<Response> {

@@ -123,7 +123,7 @@ Response App::create_scene(const Request& request, const Target& target) {
   }
   compiled->version = *created;
   compiled->version.canonical_json.clear();
-  keep_loaded(*compiled);  // its first tile needs no parse
+  versions_.keep(*compiled);  // its first tile needs no parse
   Response r = json_response(request, http::status::created,
                              {{"id", created->scene_id},
                               {"version", created->version},
@@ -177,7 +177,7 @@ Response App::put_scene(const Request& request, const std::string& id) {
   }
   compiled->version = *stored;
   compiled->version.canonical_json.clear();
-  keep_loaded(*compiled);
+  versions_.keep(*compiled);
   Response r =
       json_response(request, http::status::ok,
                     {{"id", stored->scene_id},

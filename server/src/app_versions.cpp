@@ -1,60 +1,46 @@
-// Scene versions: parsed (images decoded once per hash), compiled, kept in memory, resolved
-// from refs; and a request body's scene checked as it will be read back before it is stored.
-#include <chrono>
+// Scene versions: parsed (images decoded once per hash) and compiled; refs resolved through
+// SceneVersions, its failures as problems; a request body's scene checked as it will be read back
+// before it is stored; baked grids shared through the disk cache, Redis and the store.
 #include <cstring>
 #include <limits>
 #include <optional>
 
 #include "app_support.hpp"
 #include "server/app.hpp"
+#include "server/log.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/scene.hpp"
 
 namespace server {
 
-using detail::parse_integer;
 using detail::store_problem;
-using detail::valid_id;
 using terrain::Error;
 using terrain::Result;
 
 namespace {
 
-constexpr std::size_t kLoadedVersions = 64;  // compiled scene versions kept in memory
-
-// A scene ref taken apart, its version in one spelling ("id@7" for "id@07"), so that re-spellings
-// share one entry of the bounded memo of resolved refs instead of evicting the others.
-struct ParsedRef {
-  std::string id;
-  std::string key;  ///< the memo's key: "id", "id@7" or "id@sha256:…"
-  bool pinned = false;
-  std::optional<std::int64_t> number;  ///< pinned by number; else by hash (when pinned)
-};
-
-/// Nullopt when the version is neither a number from 1 nor "sha256:" and 64 lower-case hex
-/// digits; the id is not checked here.
-std::optional<ParsedRef> parse_ref(const std::string& ref) {
-  const std::size_t at = ref.find('@');
-  ParsedRef parsed{ref.substr(0, at), ref.substr(0, at), at != std::string::npos, std::nullopt};
-  if (!parsed.pinned) return parsed;
-  const std::string token = ref.substr(at + 1);
-  if (token.starts_with("sha256:") && token.size() == 71 &&
-      token.find_first_not_of("0123456789abcdef", 7) == std::string::npos) {
-    parsed.key += "@" + token;
-  } else if (auto n = parse_integer<std::int64_t>(token); n && *n >= 1) {
-    parsed.number = *n;
-    parsed.key += "@" + std::to_string(*n);
-  } else {
-    return std::nullopt;
+Response version_problem(const Request& request, const SceneVersions::Failure& failure) {
+  using Kind = SceneVersions::Failure::Kind;
+  switch (failure.kind) {
+    case Kind::bad_id:
+      return problem(request, http::status::bad_request, "Bad scene id",
+                     "scene ids are 1 to 64 characters of a-z, 0-9, '-' and '_'", "/id");
+    case Kind::bad_version:
+      return problem(request, http::status::bad_request, "Bad version",
+                     "a version is a number from 1 or a sha256: hash (64 lower-case hex digits)",
+                     "/version");
+    case Kind::store:
+      return store_problem(request, failure.store);
+    case Kind::compile:
+      break;
   }
-  return parsed;
-}
-
-// Pinned refs name immutable versions: once resolved, never asked of the store again. Head refs
-// are remembered for a second (their responses say max-age=5 anyway).
-bool still_fresh(bool pinned, std::chrono::steady_clock::time_point remembered,
-                 std::chrono::steady_clock::time_point now) {
-  return pinned || now - remembered < std::chrono::seconds(1);
+  // Beyond a limit configured since it was stored (erosion work): 422, as its write would be.
+  if (failure.compile.kind == terrain::ErrorKind::unsupported) {
+    return problem(request, http::status::unprocessable_entity, "Stored scene too costly",
+                   failure.compile.message, failure.compile.pointer);
+  }
+  return problem(request, http::status::internal_server_error, "Stored scene unreadable",
+                 failure.compile.message, failure.compile.pointer);
 }
 
 /// A baked grid as the shared stores keep it: the SHA-256 (hex) of its bytes, then the bytes.
@@ -146,104 +132,18 @@ terrain::Result<LoadedVersion, terrain::Error> App::compile_scene(const std::str
   return loaded;
 }
 
-void App::keep_loaded(const LoadedVersion& loaded) {
-  std::lock_guard lock(versions_mutex_);
-  if (loaded_.size() >= kLoadedVersions) loaded_.clear();
-  loaded_.insert_or_assign(loaded.version.hash, loaded);
-}
-
 terrain::Result<LoadedVersion, Response> App::load_version(const Request& request,
                                                            const SceneVersion& version) {
-  {
-    std::lock_guard lock(versions_mutex_);
-    auto it = loaded_.find(version.hash);
-    if (it != loaded_.end()) {
-      LoadedVersion loaded = it->second;
-      loaded.version = version;
-      loaded.version.canonical_json.clear();  // the parsed scene holds it
-      return loaded;
-    }
-  }
-  terrain::Result<LoadedVersion, terrain::Error> compiled =
-      compile_scene(version.canonical_json, SceneSource::stored);
-  if (!compiled) {
-    // Beyond a limit configured since it was stored (erosion work): 422, as its write would be.
-    if (compiled.error().kind == terrain::ErrorKind::unsupported) {
-      return problem(request, http::status::unprocessable_entity, "Stored scene too costly",
-                     compiled.error().message, compiled.error().pointer);
-    }
-    return problem(request, http::status::internal_server_error, "Stored scene unreadable",
-                   compiled.error().message, compiled.error().pointer);
-  }
-  LoadedVersion loaded = std::move(compiled).value();
-  loaded.version = version;
-  loaded.version.canonical_json.clear();  // the parsed scene holds it
-  keep_loaded(loaded);
-  return loaded;
+  terrain::Result<LoadedVersion, SceneVersions::Failure> loaded = versions_.load(version);
+  if (!loaded) return version_problem(request, loaded.error());
+  return std::move(loaded).value();
 }
 
 terrain::Result<LoadedVersion, Response> App::resolve(const Request& request,
                                                       const std::string& ref) {
-  const std::size_t at = ref.find('@');
-  const std::string id = ref.substr(0, at);
-  if (!valid_id(id)) {
-    return problem(request, http::status::bad_request, "Bad scene id",
-                   "scene ids are 1 to 64 characters of a-z, 0-9, '-' and '_'", "/id");
-  }
-  const std::optional<ParsedRef> parsed = parse_ref(ref);
-  if (!parsed) {
-    return problem(request, http::status::bad_request, "Bad version",
-                   "a version is a number from 1 or a sha256: hash (64 lower-case hex digits)",
-                   "/version");
-  }
-  const bool pinned = parsed->pinned;
-  const std::string& key = parsed->key;
-  // A head ref is also forgotten at once when this server writes a new version (forget_head).
-  const auto now = std::chrono::steady_clock::now();
-  {
-    std::lock_guard lock(versions_mutex_);
-    if (auto it = resolved_.find(key); it != resolved_.end()) {
-      if (still_fresh(pinned, it->second.second, now)) return it->second.first;
-      resolved_.erase(it);
-    }
-  }
-  auto remember = [&](terrain::Result<LoadedVersion, Response> loaded) {
-    if (loaded) {
-      std::lock_guard lock(versions_mutex_);
-      if (resolved_.size() >= 4096) resolved_.clear();
-      // Stamped when the load ends, not when the request came: a load longer than a head's
-      // freshness (a large erosion's bake) would otherwise be stale on arrival, and the request
-      // it was made for would find its version "not loaded" again and be refused as busy.
-      resolved_[key] = {*loaded, std::chrono::steady_clock::now()};
-    }
-    return loaded;
-  };
-  StoreResult<SceneVersion> version = StoreError{};
-  if (!pinned) {
-    version = store_->head(id);
-  } else if (parsed->number) {
-    version = store_->version(id, *parsed->number);
-  } else {
-    version = store_->version_by_hash(id, ref.substr(ref.find('@') + 1));
-  }
-  if (!version) return store_problem(request, version.error());
-  return remember(load_version(request, *version));
-}
-
-bool App::is_loaded(const std::string& ref) {
-  const std::optional<ParsedRef> parsed = parse_ref(ref);
-  if (!parsed) return false;  // resolve() answers it, wherever it runs
-  std::lock_guard lock(versions_mutex_);
-  const auto it = resolved_.find(parsed->key);
-  // A head ref remembered more than a second ago may have moved to a version not loaded yet.
-  return it != resolved_.end() &&
-         still_fresh(parsed->pinned, it->second.second, std::chrono::steady_clock::now()) &&
-         loaded_.contains(it->second.first.version.hash);
-}
-
-void App::forget_head(const std::string& id) {
-  std::lock_guard lock(versions_mutex_);
-  resolved_.erase(id);
+  terrain::Result<LoadedVersion, SceneVersions::Failure> loaded = versions_.resolve(ref);
+  if (!loaded) return version_problem(request, loaded.error());
+  return std::move(loaded).value();
 }
 
 terrain::Result<LoadedVersion, Response> App::compile_for_storing(const Request& request) {
@@ -269,9 +169,12 @@ terrain::Result<LoadedVersion, Response> App::compile_for_storing(const Request&
 }
 
 void App::share_baked_grids() {
-  if (!disk_cache_ && !redis_) return;
+  // Nearest first: the disk cache, Redis, then the store (SQLite or PostgreSQL, which outlives
+  // both and is shared by every replica). A grid found further away is copied nearer.
+  const bool in_store = config_.store_bake_bytes > 0;
+  if (!disk_cache_ && !redis_ && !in_store) return;
   terrain::BakeCache::Shared shared;
-  shared.find = [this](const std::string& key) -> std::optional<std::vector<float>> {
+  shared.find = [this, in_store](const std::string& key) -> std::optional<std::vector<float>> {
     const std::string name = "bake/" + key;
     if (disk_cache_) {
       if (auto found = disk_cache_->find(name)) {
@@ -286,14 +189,35 @@ void App::share_baked_grids() {
         }
       }
     }
+    if (in_store) {
+      // Unavailable or missing alike: a miss, and the grid is made (and offered back).
+      if (StoreResult<std::vector<std::uint8_t>> bytes = store_->baked_grid(key)) {
+        CachedProduct sealed;
+        sealed.media_type = "application/octet-stream";
+        sealed.body.assign(bytes->begin(), bytes->end());
+        if (auto grid = unsealed_grid(sealed.body)) {
+          if (disk_cache_) disk_cache_->insert(name, sealed);
+          if (redis_) redis_->insert(name, sealed);
+          return grid;
+        }
+      }
+    }
     return std::nullopt;
   };
-  shared.insert = [this](const std::string& key, const std::vector<float>& grid) {
+  shared.insert = [this, in_store](const std::string& key, const std::vector<float>& grid) {
     CachedProduct sealed;
     sealed.body = sealed_grid(grid);
     sealed.media_type = "application/octet-stream";
     if (disk_cache_) disk_cache_->insert("bake/" + key, sealed);
     if (redis_) redis_->insert("bake/" + key, sealed);  // within Redis's entry size only
+    if (in_store) {
+      const std::vector<std::uint8_t> bytes(sealed.body.begin(), sealed.body.end());
+      if (StoreResult<bool> kept = store_->put_baked_grid(key, bytes, config_.store_bake_bytes);
+          !kept) {
+        log(LogLevel::warn, "baked grid not kept in the store",
+            {{"key", key}, {"message", kept.error().message}});
+      }
+    }
   };
   bake_cache_.share_with(std::move(shared));
 }

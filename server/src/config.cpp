@@ -98,6 +98,10 @@ const std::vector<Option>& options() {
        "(postgresql://user@host:5432/terrain)"},
       {"store.postgres_pool_size", "--postgres-pool-size", "TERRAIN_POSTGRES_POOL_SIZE",
        &Config::postgres_pool_size, 1, 1000, "connections to PostgreSQL one server keeps at most"},
+      {"store.bake_bytes", "--store-bake-bytes", "TERRAIN_STORE_BAKE_BYTES",
+       &Config::store_bake_bytes, 0, kBig,
+       "baked erosion and drainage grids kept in the store, so that no replica or restart "
+       "computes them again; the oldest go first (0 = none)"},
       {"store.scenes_dir", "--scenes-dir", "TERRAIN_SCENES_DIR", &Config::scenes_dir, 0, 0,
        "built-in example scenes loaded into an empty store"},
       {"store.planets_dir", "--planets-dir", "TERRAIN_PLANETS_DIR", &Config::planets_dir, 0, 0,

@@ -73,6 +73,15 @@ constexpr const char* kMigrations[] = {
     R"sql(
     ALTER TABLE versions ADD COLUMN ops TEXT;
     )sql",
+    // 4: baked grids (erosion, drainage) by the content hash of what made them.
+    R"sql(
+    CREATE TABLE baked_grids (
+      key TEXT PRIMARY KEY,
+      size BIGINT NOT NULL,
+      bytes BYTEA NOT NULL,
+      created_ms BIGINT NOT NULL
+    );
+    )sql",
 };
 
 // Every column list that reads a whole version, in SceneVersion's order.
@@ -586,6 +595,37 @@ class PostgresStore final : public Store {
       if (!r.ok()) return c.failure(r, "cannot read blob " + hash);
       if (r.size() == 0) return StoreError{Kind::not_found, "no blob " + hash};
       return Blob{r.text(0, 0), r.text(0, 1), r.bytes(0, 2)};
+    });
+  }
+
+  StoreResult<bool> put_baked_grid(const std::string& key, const std::vector<std::uint8_t>& bytes,
+                                   std::int64_t max_total_bytes) override {
+    const auto size = static_cast<std::int64_t>(bytes.size());
+    if (size > max_total_bytes) return false;
+    // Idempotent (and the trim with it), so retried like a read.
+    return run([&](Connection& c) -> StoreResult<bool> {
+      Rows put = c.exec(
+          "INSERT INTO baked_grids (key, size, bytes, created_ms) VALUES ($1, $2, $3, $4) "
+          "ON CONFLICT (key) DO NOTHING",
+          {Param::text(key), Param::int8(size), Param::bytes(bytes), Param::int8(now_ms())});
+      if (!put.ok()) return c.failure(put, "cannot store baked grid " + key);
+      // The newest kept first; the oldest (ties by key) beyond the bound dropped.
+      Rows evict = c.exec(
+          "DELETE FROM baked_grids WHERE key IN (SELECT key FROM (SELECT key, SUM(size) OVER "
+          "(ORDER BY created_ms DESC, key DESC) AS running FROM baked_grids) AS newest "
+          "WHERE running > $1)",
+          {Param::int8(max_total_bytes)});
+      if (!evict.ok()) return c.failure(evict, "cannot trim the baked grids");
+      return true;
+    });
+  }
+
+  StoreResult<std::vector<std::uint8_t>> baked_grid(const std::string& key) override {
+    return run([&](Connection& c) -> StoreResult<std::vector<std::uint8_t>> {
+      Rows r = c.exec("SELECT bytes FROM baked_grids WHERE key = $1", {Param::text(key)}, true);
+      if (!r.ok()) return c.failure(r, "cannot read baked grid " + key);
+      if (r.size() == 0) return StoreError{Kind::not_found, "no baked grid " + key};
+      return r.bytes(0, 0);
     });
   }
 

@@ -58,7 +58,22 @@ constexpr const char* kMigrations[] = {
     R"sql(
     ALTER TABLE versions ADD COLUMN ops TEXT;
     )sql",
+    // 4: baked grids (erosion, drainage) by the content hash of what made them.
+    R"sql(
+    CREATE TABLE baked_grids (
+      key TEXT PRIMARY KEY,
+      size INTEGER NOT NULL,
+      bytes BLOB NOT NULL,
+      created_ms INTEGER NOT NULL
+    );
+    )sql",
 };
+
+// Drops the oldest baked grids (ties by key) beyond the bound, the newest kept first.
+constexpr const char* kEvictBakedGrids =
+    "DELETE FROM baked_grids WHERE key IN (SELECT key FROM (SELECT key, SUM(size) OVER "
+    "(ORDER BY created_ms DESC, key DESC) AS running FROM baked_grids) AS newest "
+    "WHERE running > ?)";
 
 std::int64_t now_ms() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(
@@ -323,6 +338,32 @@ class SqliteStore final : public Store {
     if (rc == SQLITE_DONE) return StoreError{Kind::not_found, "no blob " + hash};
     if (rc != SQLITE_ROW) return failure("cannot read blob " + hash);
     return Blob{q.text(0), q.text(1), q.blob(2)};
+  }
+
+  StoreResult<bool> put_baked_grid(const std::string& key, const std::vector<std::uint8_t>& bytes,
+                                   std::int64_t max_total_bytes) override {
+    const auto size = static_cast<std::int64_t>(bytes.size());
+    if (size > max_total_bytes) return false;
+    std::lock_guard lock(mutex_);
+    Statement put(db_,
+                  "INSERT OR IGNORE INTO baked_grids (key, size, bytes, created_ms) "
+                  "VALUES (?, ?, ?, ?)");
+    put.bind(1, key).bind(2, size).bind_blob(3, bytes).bind(4, now_ms());
+    if (put.step() != SQLITE_DONE) return failure("cannot store baked grid " + key);
+    Statement evict(db_, kEvictBakedGrids);
+    evict.bind(1, max_total_bytes);
+    if (evict.step() != SQLITE_DONE) return failure("cannot trim the baked grids");
+    return true;
+  }
+
+  StoreResult<std::vector<std::uint8_t>> baked_grid(const std::string& key) override {
+    std::lock_guard lock(mutex_);
+    Statement q(db_, "SELECT bytes FROM baked_grids WHERE key = ?");
+    q.bind(1, key);
+    const int rc = q.step();
+    if (rc == SQLITE_DONE) return StoreError{Kind::not_found, "no baked grid " + key};
+    if (rc != SQLITE_ROW) return failure("cannot read baked grid " + key);
+    return q.blob(0);
   }
 
   StoreResult<PlanetPut> put_planet(const StoredPlanet& planet) override {

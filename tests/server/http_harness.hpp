@@ -446,6 +446,31 @@ inline std::string disc_scene(double elevation, const std::string& name = "Test 
       .dump();
 }
 
+/// A dome with a bowl dug into its top, drained on a 64² grid (quick to bake): the bowl holds a
+/// lake. `eroded` puts a 64² erosion under the drainage.
+inline std::string drained_dome_scene(bool eroded = false) {
+  json land = {{"type", "add"},
+               {"children",
+                {{{"type", "disc"}, {"center", {0, 0}}, {"radius", 1400}, {"elevation", 400}},
+                 {{"type", "disc"}, {"center", {0, 0}}, {"radius", 400}, {"elevation", -80}}}}};
+  if (eroded) {
+    land = {{"type", "erosion"},
+            {"resolution", 64},
+            {"center", {0, 0}},
+            {"size", 2000},
+            {"children", {land}}};
+  }
+  return json{{"format", "terrain-scene/1"},
+              {"root",
+               {{"type", "drainage"},
+                {"resolution", 64},
+                {"center", {0, 0}},
+                {"size", 2000},
+                {"channel_area", 20000},
+                {"children", {land}}}}}
+      .dump();
+}
+
 inline std::string etag_of(const std::string& s) {
   return "\"" + s + "\"";
 }

@@ -178,21 +178,9 @@ TEST_F(HttpApi, TheFirstRequestToABuiltInDrainedSceneIsAnsweredOnceItsGridsAreBa
 }
 
 TEST_F(HttpApi, SampleSaysWhereADrainagesLakeAndRiversAre) {
-  // A dome with a bowl dug into its top, drained on a small grid: the bowl holds a lake.
-  const json scene = {
-      {"format", "terrain-scene/1"},
-      {"root",
-       {{"type", "drainage"},
-        {"resolution", 64},
-        {"center", {0, 0}},
-        {"size", 2000},
-        {"channel_area", 20000},
-        {"children",
-         {{{"type", "add"},
-           {"children",
-            {{{"type", "disc"}, {"center", {0, 0}}, {"radius", 1400}, {"elevation", 400}},
-             {{"type", "disc"}, {"center", {0, 0}}, {"radius", 400}, {"elevation", -80}}}}}}}}}};
-  const Response created = fetch("POST", "/api/v1/scenes?id=drained", with_token(), scene.dump());
+  // The bowl dug into the dome holds a lake.
+  const Response created =
+      fetch("POST", "/api/v1/scenes?id=drained", with_token(), drained_dome_scene());
   ASSERT_EQ(created.result_int(), 201u) << created.body();
   const Response lake = get("/api/v1/scenes/drained/sample?x=0&y=0");
   ASSERT_EQ(lake.result_int(), 200u) << lake.body();

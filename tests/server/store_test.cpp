@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <thread>
 
@@ -220,6 +221,31 @@ TEST_P(StoreTest, BlobBytesRoundTripExactly) {
   const Blob none{content_hash(nullptr, 0), "image/png", {}};
   ASSERT_TRUE(store_->put_blob(none).ok());
   EXPECT_TRUE(store_->blob(none.hash)->bytes.empty());
+}
+
+TEST_P(StoreTest, BakedGridsRoundTripExactlyAndSurviveReopening) {
+  const std::vector<std::uint8_t> grid{0, 255, 0, 92, 120, 0, 7};
+  ASSERT_TRUE(*store_->put_baked_grid("bake-a", grid, 1 << 20));
+  ASSERT_TRUE(*store_->put_baked_grid("bake-a", grid, 1 << 20));  // idempotent
+  store_ = open_or_die();
+  EXPECT_EQ(*store_->baked_grid("bake-a"), grid);
+  EXPECT_EQ(store_->baked_grid("bake-b").error().kind, StoreError::Kind::not_found);
+}
+
+TEST_P(StoreTest, BakedGridsStayWithinTheirBoundTheOldestGoingFirst) {
+  const std::vector<std::uint8_t> kilobyte(1000, 7);
+  // Keys against their age order, so that the test sees the age and not the tie break.
+  for (const char* key : {"z", "y", "x"}) {
+    ASSERT_TRUE(*store_->put_baked_grid(key, kilobyte, 2500)) << key;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));  // distinct creation times
+  }
+  EXPECT_EQ(store_->baked_grid("z").error().kind, StoreError::Kind::not_found);
+  EXPECT_EQ(*store_->baked_grid("y"), kilobyte);
+  EXPECT_EQ(*store_->baked_grid("x"), kilobyte);
+  // A grid larger than the bound is not kept, and drops nothing.
+  EXPECT_FALSE(*store_->put_baked_grid("huge", std::vector<std::uint8_t>(3000, 1), 2500));
+  EXPECT_EQ(store_->baked_grid("huge").error().kind, StoreError::Kind::not_found);
+  EXPECT_TRUE(store_->baked_grid("y").ok());
 }
 
 }  // namespace

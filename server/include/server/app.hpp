@@ -24,6 +24,7 @@
 #include "server/live_bus.hpp"
 #include "server/metrics.hpp"
 #include "server/redis_cache.hpp"
+#include "server/scene_versions.hpp"
 #include "server/static_files.hpp"
 #include "server/store.hpp"
 #include "server/thread_shards.hpp"
@@ -33,13 +34,6 @@
 #include "terrain/tile_source.hpp"
 
 namespace server {
-
-/// A stored scene version, parsed and compiled once and shared by every thread.
-struct LoadedVersion {
-  SceneVersion version;
-  std::shared_ptr<const terrain::TileSource> source;
-  std::shared_ptr<const terrain::Scene> scene;
-};
 
 /// A stored planet with its definition parsed and its base mesh built, shared by every thread.
 struct LoadedPlanet {
@@ -249,8 +243,6 @@ class App {
   /// The scheme and authority absolute URLs start with: server.public_url when set, else
   /// "http://" and the request's Host once validated (400 naming /headers/host otherwise).
   terrain::Result<std::string, Response> public_origin(const Request& request) const;
-  /// True when `ref` resolves to a version already parsed and compiled (no work to resolve it).
-  bool is_loaded(const std::string& ref);
   /// `work` as Deferred work for the generation pool: what parses, compiles and stores a scene
   /// stays off the I/O threads.
   Outcome off_io_thread(const Request& request, std::function<Response(const Request&)> work);
@@ -260,8 +252,6 @@ class App {
       const std::string& text, SceneSource source = SceneSource::input);
   /// A request body's scene checked as it will be read back: its canonical form compiled.
   terrain::Result<LoadedVersion, Response> compile_for_storing(const Request& request);
-  /// Keeps a compiled version for the products of its hash (bounded).
-  void keep_loaded(const LoadedVersion& loaded);
   /// Gives the bake cache the disk cache and Redis, when configured, as shared stores of grids.
   void share_baked_grids();
   /// An uploaded image decoded, shared by every scene and version that uses it (bounded).
@@ -293,12 +283,8 @@ class App {
   std::mutex images_mutex_;
   std::unordered_map<std::string, std::shared_ptr<const terrain::Raster>> decoded_;  // by hash
   std::int64_t decoded_pixels_ = 0;  ///< in decoded_
-  std::mutex versions_mutex_;
-  std::unordered_map<std::string, LoadedVersion> loaded_;  // by version hash (bounded)
-  // Scene refs ("id", "id@3") already resolved, with when (head refs expire).
-  std::unordered_map<std::string, std::pair<LoadedVersion, std::chrono::steady_clock::time_point>>
-      resolved_;
-  void forget_head(const std::string& id);
+  /// Scene refs resolved to compiled versions (stored ones read as SceneSource::stored).
+  SceneVersions versions_;
 
   ThreadShards<ProductRoutes> product_routes_;
 

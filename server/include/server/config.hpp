@@ -52,6 +52,7 @@ struct Config {
   // caches
   std::int64_t cache_bytes = 256ll << 20;       ///< in-memory LRU budget
   std::int64_t bake_cache_bytes = 256ll << 20;  ///< erosion grids kept by content hash
+  std::int64_t store_bake_bytes = 1ll << 30;    ///< baked grids kept in the store (0 = none)
   /// Cell-steps all the erosion nodes of one scene may run (terrain::erosion_work), checked
   /// before any runs: the default takes about 8 s of one core at 2048².
   std::int64_t erosion_work = std::int64_t{1} << 24;

@@ -109,6 +109,15 @@ class Store {
   virtual StoreResult<std::vector<StoredPlanet>> list_planets() = 0;
   /// True when no scene has ever been stored (built-in examples are loaded then).
   virtual StoreResult<bool> empty() = 0;
+
+  /// Keeps a baked grid (an erosion's or a drainage's, sealed by the caller) under the content
+  /// hash of what made it, so that no replica and no restart computes it again. Idempotent. The
+  /// grids kept stay within `max_total_bytes` together: the oldest go first, and a grid larger
+  /// than the bound is not kept (false).
+  virtual StoreResult<bool> put_baked_grid(const std::string& key,
+                                           const std::vector<std::uint8_t>& bytes,
+                                           std::int64_t max_total_bytes) = 0;
+  virtual StoreResult<std::vector<std::uint8_t>> baked_grid(const std::string& key) = 0;
 };
 
 /// Opens (creating when needed) `<data_dir>/terrain.sqlite3` in WAL mode with synchronous=FULL,

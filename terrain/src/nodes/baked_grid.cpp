@@ -194,10 +194,9 @@ BakeCache::Grid bake_grid(const ParseContext& context, std::string_view kind,
   BakeCache* cache = context.options->bake_cache;
   if (cache == nullptr) return make();
   // The product generation changes with the solvers' arithmetic: a grid made by an older one is
-  // never found (in the disk cache or Redis) for a newer one.
+  // never found (in the disk cache, Redis or the store) for a newer one.
   std::string content = std::string(kind) + " g" + std::to_string(kProductGeneration) + " " +
-                        canonical.dump() + " base " +
-                        std::to_string(context.base_elevation) + " ";
+                        canonical.dump() + " base " + std::to_string(context.base_elevation) + " ";
   append_content(*context.children.front(), content);
   return cache->get_or_make(sha256_hex(content), make);
 }
