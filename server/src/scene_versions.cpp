@@ -45,6 +45,14 @@ std::optional<ParsedRef> parse_ref(const std::string& ref) {
   return parsed;
 }
 
+// Built field by field: GCC 12 at -O3 warns that brace-initialised Failures' strings "may be used
+// uninitialized" (a false positive that -Werror turns into a release build failure).
+SceneVersions::Failure failure(SceneVersions::Failure::Kind kind) {
+  SceneVersions::Failure f;
+  f.kind = kind;
+  return f;
+}
+
 bool still_fresh(bool pinned, std::chrono::steady_clock::time_point remembered,
                  std::chrono::steady_clock::time_point now) {
   return pinned || now - remembered < std::chrono::seconds(1);
@@ -57,9 +65,9 @@ SceneVersions::SceneVersions(Store& store, Compile compile)
 
 terrain::Result<LoadedVersion, SceneVersions::Failure> SceneVersions::resolve(
     const std::string& ref) {
-  if (!valid_id(ref.substr(0, ref.find('@')))) return Failure{Failure::Kind::bad_id, {}, {}};
+  if (!valid_id(ref.substr(0, ref.find('@')))) return failure(Failure::Kind::bad_id);
   const std::optional<ParsedRef> parsed = parse_ref(ref);
-  if (!parsed) return Failure{Failure::Kind::bad_version, {}, {}};
+  if (!parsed) return failure(Failure::Kind::bad_version);
   {
     std::lock_guard lock(mutex_);
     if (auto it = resolved_.find(parsed->key); it != resolved_.end()) {
@@ -75,7 +83,11 @@ terrain::Result<LoadedVersion, SceneVersions::Failure> SceneVersions::resolve(
   } else {
     version = store_.version_by_hash(parsed->id, parsed->hash);
   }
-  if (!version) return Failure{Failure::Kind::store, version.error(), {}};
+  if (!version) {
+    Failure refused = failure(Failure::Kind::store);
+    refused.store = version.error();
+    return refused;
+  }
   terrain::Result<LoadedVersion, Failure> loaded = load(*version);
   if (loaded) {
     std::lock_guard lock(mutex_);
@@ -100,7 +112,11 @@ terrain::Result<LoadedVersion, SceneVersions::Failure> SceneVersions::load(
     }
   }
   terrain::Result<LoadedVersion, terrain::Error> compiled = compile_(version.canonical_json);
-  if (!compiled) return Failure{Failure::Kind::compile, {}, compiled.error()};
+  if (!compiled) {
+    Failure refused = failure(Failure::Kind::compile);
+    refused.compile = compiled.error();
+    return refused;
+  }
   LoadedVersion loaded = std::move(compiled).value();
   loaded.version = version;
   loaded.version.canonical_json.clear();
