@@ -52,11 +52,11 @@ std::string sealed_grid(const std::vector<float>& grid) {
   return terrain::sha256_hex(bytes) + std::string(bytes);
 }
 
-std::optional<std::vector<float>> unsealed_grid(const std::string& body) {
+std::optional<std::vector<float>> unsealed_grid(std::string_view body) {
   constexpr std::size_t kDigest = 64;
   if (body.size() < kDigest || (body.size() - kDigest) % sizeof(float) != 0) return std::nullopt;
-  const std::string_view bytes = std::string_view(body).substr(kDigest);
-  if (terrain::sha256_hex(bytes) != std::string_view(body).substr(0, kDigest)) return std::nullopt;
+  const std::string_view bytes = body.substr(kDigest);
+  if (terrain::sha256_hex(bytes) != body.substr(0, kDigest)) return std::nullopt;
   std::vector<float> grid(bytes.size() / sizeof(float));
   std::memcpy(grid.data(), bytes.data(), bytes.size());
   return grid;
@@ -192,12 +192,15 @@ void App::share_baked_grids() {
     if (in_store) {
       // Unavailable or missing alike: a miss, and the grid is made (and offered back).
       if (StoreResult<std::vector<std::uint8_t>> bytes = store_->baked_grid(key)) {
-        CachedProduct sealed;
-        sealed.media_type = "application/octet-stream";
-        sealed.body.assign(bytes->begin(), bytes->end());
-        if (auto grid = unsealed_grid(sealed.body)) {
-          if (disk_cache_) disk_cache_->insert(name, sealed);
-          if (redis_) redis_->insert(name, sealed);
+        const std::string_view body(reinterpret_cast<const char*>(bytes->data()), bytes->size());
+        if (auto grid = unsealed_grid(body)) {
+          if (disk_cache_ || redis_) {
+            CachedProduct sealed;
+            sealed.media_type = "application/octet-stream";
+            sealed.body = body;
+            if (disk_cache_) disk_cache_->insert(name, sealed);
+            if (redis_) redis_->insert(name, sealed);
+          }
           return grid;
         }
       }

@@ -315,22 +315,24 @@ class Solver {
   }
 
   /// Explicit linear diffusion over the four neighbours (Jacobi), outlets fixed, in as many
-  /// sub-steps as keep it stable.
+  /// sub-steps as keep it stable. Two buffers swapped per sub-step: the cells no sub-step writes
+  /// (edge, outlets) are the same in both.
   void diffuse(double coefficient) {
     const int substeps = diffusion_substeps(coefficient);
-    const double each = coefficient / std::max(substeps, 1);
-    std::vector<double> before;
+    if (substeps == 0) return;
+    const double each = coefficient / substeps;
+    std::vector<double> next = z;
     for (int s = 0; s < substeps; ++s) {
-      before = z;
       for (int j = 1; j + 1 < h_; ++j) {
         for (int i = 1; i + 1 < w_; ++i) {
           const std::size_t c = at(i, j);
           if (outlet[c] != 0) continue;
-          const double laplacian = before[at(i - 1, j)] + before[at(i + 1, j)] +
-                                   before[at(i, j - 1)] + before[at(i, j + 1)] - 4.0 * before[c];
-          z[c] = before[c] + each * laplacian;
+          const double laplacian =
+              z[at(i - 1, j)] + z[at(i + 1, j)] + z[at(i, j - 1)] + z[at(i, j + 1)] - 4.0 * z[c];
+          next[c] = z[c] + each * laplacian;
         }
       }
+      z.swap(next);
     }
   }
 

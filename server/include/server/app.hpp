@@ -252,7 +252,8 @@ class App {
       const std::string& text, SceneSource source = SceneSource::input);
   /// A request body's scene checked as it will be read back: its canonical form compiled.
   terrain::Result<LoadedVersion, Response> compile_for_storing(const Request& request);
-  /// Gives the bake cache the disk cache and Redis, when configured, as shared stores of grids.
+  /// Gives the bake cache the disk cache, Redis (when configured) and the store (unless
+  /// store.bake_bytes is 0) as shared stores of grids.
   void share_baked_grids();
   /// An uploaded image decoded, shared by every scene and version that uses it (bounded).
   terrain::Result<std::shared_ptr<const terrain::Raster>> decoded_image(const std::string& hash);

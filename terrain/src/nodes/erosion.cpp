@@ -26,8 +26,9 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
   if (!reader.ok()) return reader.error();
 
   // The cost first: refused before anything is sampled.
-  if (Status charged = charge_bake(context, reader.pointer(),
-                                   erosion_work(resolution, resolution, p.iterations, p.diffusion), *square);
+  if (Status charged =
+          charge_bake(context, reader.pointer(),
+                      erosion_work(resolution, resolution, p.iterations, p.diffusion), *square);
       !charged) {
     return charged.error();
   }
