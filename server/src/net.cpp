@@ -10,6 +10,7 @@
 #include <cmath>
 #include <csignal>
 
+#include "deadline.hpp"
 #include "live_socket.hpp"
 #include "server/admission.hpp"
 #include "server/log.hpp"
@@ -25,6 +26,7 @@
 #include <iostream>
 #include <list>
 #include <mutex>
+#include <optional>
 #include <stop_token>
 #include <thread>
 
@@ -252,87 +254,6 @@ struct HttpServer::State {
     }
   }
 
-  // Deadlines for a connection. When a read's deadline passes, the receiving side is shut (the
-  // pending read ends, and so does any read started after it) so that a 408 can still be sent;
-  // when a write's passes, the socket is closed. The handler runs on the connection's thread,
-  // like the session.
-  //
-  // Arming only records when the deadline is due: cancelling and queueing the timer again for
-  // every read and write was about 8% of a cached answer's user-space work. A wait that ends
-  // early starts another, until the deadline is due or disarmed. No wait reaches further ahead
-  // than `horizon` (the shortest timeout), so a later arm, due at least that far ahead, never
-  // needs an earlier wake-up than the pending wait's.
-  class Deadline {
-   public:
-    enum class Expiry { shut_receive, close };
-
-    Deadline(const std::shared_ptr<tcp::socket>& socket, std::chrono::milliseconds horizon)
-        : state_(std::make_shared<State>(socket, horizon)) {}
-    ~Deadline() {
-      state_->ended = true;
-      state_->timer.cancel();
-    }
-    Deadline(const Deadline&) = delete;
-    Deadline& operator=(const Deadline&) = delete;
-
-    void arm(int ms, Expiry expiry) {
-      State& s = *state_;
-      s.due = Clock::now() + std::chrono::milliseconds(ms);
-      s.expiry = expiry;
-      s.armed = true;
-      s.expired = false;
-      if (!s.waiting || s.timer.expiry() > s.due) wait(state_);
-    }
-    /// Ends the current deadline; a pending wait then lapses harmlessly.
-    void disarm() { state_->armed = false; }
-    bool expired() const { return state_->expired; }
-
-   private:
-    using Clock = std::chrono::steady_clock;
-    struct State {
-      State(const std::shared_ptr<tcp::socket>& s, std::chrono::milliseconds h)
-          : timer(s->get_executor()), socket(s), horizon(h) {}
-      asio::steady_timer timer;
-      std::weak_ptr<tcp::socket> socket;
-      std::chrono::milliseconds horizon;
-      Clock::time_point due{};
-      Expiry expiry = Expiry::close;
-      std::uint64_t wait_id = 0;  // the pending wait; an older one's end is ignored
-      bool armed = false;
-      bool expired = false;
-      bool waiting = false;
-      bool ended = false;  // the connection is gone: a queued wait's end does nothing
-    };
-
-    static void wait(const std::shared_ptr<State>& state) {
-      State& s = *state;
-      const std::uint64_t id = ++s.wait_id;
-      s.waiting = true;
-      s.timer.expires_at(std::min(s.due, Clock::now() + s.horizon));  // ends any pending wait
-      s.timer.async_wait([state, id](const boost::system::error_code& ec) {
-        State& now = *state;
-        if (id != now.wait_id) return;  // superseded by a later wait
-        now.waiting = false;
-        if (ec || now.ended || !now.armed) return;
-        if (Clock::now() < now.due) {
-          wait(state);
-          return;
-        }
-        now.expired = true;
-        if (auto socket = now.socket.lock()) {
-          boost::system::error_code ignored;
-          if (now.expiry == Expiry::close) {
-            socket->close(ignored);
-          } else {
-            socket->shutdown(tcp::socket::shutdown_receive, ignored);
-          }
-        }
-      });
-    }
-
-    std::shared_ptr<State> state_;
-  };
-
   // Writes a response: the status line and fields, then the body, in one gather write. The
   // header bytes are what Beast's serializer would write; a shared body (a cached tile) goes
   // out without a copy.
@@ -503,217 +424,289 @@ struct HttpServer::State {
          {"ms", std::round(seconds * 1e5) / 100.0}});
   }
 
+  // One HTTP connection: its stream, read buffer and deadline, and its places in the worker's
+  // lists of open and idle streams, which it leaves when it ends (or turns into a live channel).
+  class Connection {
+   public:
+    Connection(tcp::socket accepted, Worker& worker, std::chrono::milliseconds horizon)
+        : stream(std::make_shared<tcp::socket>(std::move(accepted))),
+          deadline(stream, horizon),
+          worker_(worker),
+          open_(worker.open.insert(worker.open.begin(), stream)),
+          idle_(worker.idle.end()) {
+      set_idle(true);
+    }
+    ~Connection() {
+      set_idle(false);
+      if (!left_http_) worker_.open.erase(open_);
+      boost::system::error_code ignored;
+      stream->shutdown(tcp::socket::shutdown_send, ignored);
+      stream->close(ignored);
+    }
+    Connection(const Connection&) = delete;
+    Connection& operator=(const Connection&) = delete;
+
+    // Idle (waiting for a request) connections are closed at once by a shutdown; busy ones get
+    // the grace period. Only this worker's thread touches its lists.
+    void set_idle(bool is_idle) {
+      if (idle_ != worker_.idle.end()) worker_.idle.erase(idle_);
+      idle_ = is_idle ? worker_.idle.insert(worker_.idle.begin(), stream) : worker_.idle.end();
+    }
+    // The stream leaves HTTP for a live channel, which closes itself at shutdown.
+    void leave_http() {
+      set_idle(false);
+      worker_.open.erase(open_);
+      left_http_ = true;
+    }
+
+    std::shared_ptr<tcp::socket> stream;
+    beast::flat_buffer buffer;
+    Deadline deadline;
+    bool first_request = true;
+
+   private:
+    Worker& worker_;
+    std::list<std::weak_ptr<tcp::socket>>::iterator open_;
+    std::list<std::weak_ptr<tcp::socket>>::iterator idle_;
+    bool left_http_ = false;
+  };
+
+  // A request read whole, with the room its body holds among all bodies in memory.
+  struct Received {
+    Request request;
+    BodyBudget::Reservation room;
+  };
+
+  // The answer owed to a header that could not be read; none when the client left or idled out
+  // without sending a byte.
+  std::optional<Response> unread_header_answer(const boost::system::error_code& ec, bool timed_out,
+                                               bool had_bytes) const {
+    if (timed_out) {
+      if (stopping || !had_bytes) return std::nullopt;
+      return unreadable(http::status::request_timeout, "Request timeout",
+                        "the request header did not arrive in time");
+    }
+    if (ec == http::error::header_limit) {
+      return unreadable(
+          http::status::request_header_fields_too_large, "Header too large",
+          "request headers are limited to " + std::to_string(config.header_limit) + " bytes");
+    }
+    if (ec == http::error::end_of_stream || ec == asio::error::operation_aborted ||
+        ec == asio::error::eof || ec == asio::error::connection_reset ||
+        ec == asio::error::bad_descriptor) {
+      return std::nullopt;
+    }
+    return unreadable(http::status::bad_request, "Malformed request", ec.message());
+  }
+
+  // The answer owed to a body that could not be read; none when the client went away.
+  static std::optional<Response> unread_body_answer(const boost::system::error_code& ec,
+                                                    bool timed_out, std::int64_t limit) {
+    if (ec == http::error::body_limit) {
+      return unreadable(http::status::payload_too_large, "Body too large",
+                        "this route accepts at most " + std::to_string(limit) + " bytes");
+    }
+    if (timed_out) {
+      return unreadable(http::status::request_timeout, "Request timeout",
+                        "the request body did not arrive in time");
+    }
+    if (ec.category() == http::make_error_code(http::error::bad_target).category() &&
+        ec != http::error::partial_message && ec != http::error::end_of_stream) {
+      // A malformed body (bad chunk framing, say).
+      return unreadable(http::status::bad_request, "Malformed request", ec.message());
+    }
+    return std::nullopt;
+  }
+
+  // Reads the next request's header within its deadline; false when the connection is to close
+  // (after the answer a bad header is owed).
+  awaitable<bool> read_header(Connection& c, http::request_parser<http::empty_body>& parser) {
+    parser.header_limit(static_cast<std::uint32_t>(config.header_limit));
+    // The route's body limit is checked once the target is known; the parser's default (1 MiB)
+    // would refuse larger declared bodies as malformed before that.
+    parser.body_limit(boost::none);
+    boost::system::error_code ec;
+    c.deadline.arm(c.first_request ? config.header_timeout_ms : config.idle_timeout_ms,
+                   Deadline::Expiry::shut_receive);
+    co_await http::async_read_header(*c.stream, c.buffer, parser,
+                                     asio::redirect_error(use_awaitable, ec));
+    const bool timed_out = c.deadline.expired();
+    c.deadline.disarm();
+    if (!ec) co_return true;
+    if (auto owed = unread_header_answer(ec, timed_out, c.buffer.size() > 0)) {
+      co_await write(*c.stream, c.deadline, *owed);
+    }
+    co_return false;
+  }
+
+  // Turns the connection into a live channel (docs/live.md), or answers why not.
+  awaitable<void> open_live(Connection& c, http::request_parser<http::empty_body>& parser,
+                            std::chrono::steady_clock::time_point started) {
+    Request upgrade(std::move(parser.release().base()));
+    auto opened = app.live_open(upgrade);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    if (!opened) {
+      Response refusal = std::move(opened).error();
+      app.add_cors(upgrade, refusal);
+      refusal.keep_alive(false);
+      refusal.content_length(refusal.body().size());
+      app.metrics().request("live", static_cast<int>(refusal.result_int()), seconds);
+      co_await write(*c.stream, c.deadline, refusal);
+      co_return;
+    }
+    app.metrics().request("live", 101, seconds);
+    if (stopping) co_return;
+    c.leave_http();
+    co_await serve_live(std::move(*c.stream), std::move(upgrade), std::move(opened).value(), app,
+                        live_sessions, live_messages.get_executor());
+  }
+
+  // Why a request may not send its body, decided before a byte of it is read: framing that
+  // could smuggle a request, a route that takes none, the write token, the route's limit, and
+  // room among all the bodies being received (a client without a token pins no memory).
+  // Reserves the room when it may.
+  std::optional<Response> refuse_body(const Request& request, const App::BodyPolicy& policy,
+                                      boost::optional<std::uint64_t> declared,
+                                      BodyBudget::Reservation& room) {
+    if (policy.limit == 0) {
+      // The route takes no body: its answer (a 404 or 405, say) if it has one.
+      Outcome outcome = app.handle(request);
+      if (auto* response = std::get_if<Response>(&outcome)) return std::move(*response);
+      return problem(request, http::status::bad_request, "Unexpected body",
+                     "this route takes no request body");
+    }
+    if (policy.write) {
+      if (Response auth = app.authorize(request); auth.result() != http::status::ok) return auth;
+    }
+    if (declared && static_cast<std::int64_t>(*declared) > policy.limit) {
+      return problem(request, http::status::payload_too_large, "Body too large",
+                     "this route accepts at most " + std::to_string(policy.limit) + " bytes");
+    }
+    room = bodies.reserve(declared ? static_cast<std::int64_t>(*declared) : policy.limit);
+    if (!room) {
+      Response busy = problem(request, http::status::service_unavailable, "Busy",
+                              "the server is receiving as many request bodies as it may (" +
+                                  std::to_string(bodies.limit()) + " bytes); retry shortly");
+      busy.set(http::field::retry_after, "1");
+      return busy;
+    }
+    return std::nullopt;
+  }
+
+  // The rest of a request whose header has been read: its body, if it may send one. Nullopt
+  // when the connection is to close (after the answer owed).
+  awaitable<std::optional<Received>> read_body(Connection& c,
+                                               http::request_parser<http::empty_body>& header) {
+    const std::string_view target(header.get().target().data(), header.get().target().size());
+    Received received;
+    const App::BodyPolicy policy = app.body_policy(header.get().method(), target);
+    if (const auto framing = check_framing(header.get())) {
+      const Request request(header.get().base());
+      co_await refuse(*c.stream, c.deadline, request,
+                      problem(request, framing->status, "Bad framing", framing->detail,
+                              "/headers/transfer-encoding"));
+      co_return std::nullopt;
+    }
+    if (header.chunked() || header.content_length().value_or(0) > 0) {
+      const Request request(header.get().base());  // a copy, made only for a body
+      if (auto refusal = refuse_body(request, policy, header.content_length(), received.room)) {
+        co_await refuse(*c.stream, c.deadline, request, std::move(*refusal));
+        co_return std::nullopt;
+      }
+    }
+    http::request_parser<http::string_body> parser(std::move(header));
+    parser.body_limit(static_cast<std::uint64_t>(std::max<std::int64_t>(policy.limit, 0)));
+    if (!parser.is_done()) {  // most requests (GETs) have no body and need no second read
+      boost::system::error_code ec;
+      c.deadline.arm(config.body_timeout_ms, Deadline::Expiry::shut_receive);
+      co_await http::async_read(*c.stream, c.buffer, parser,
+                                asio::redirect_error(use_awaitable, ec));
+      const bool timed_out = c.deadline.expired();
+      c.deadline.disarm();
+      if (ec) {
+        if (auto owed = unread_body_answer(ec, timed_out, policy.limit)) {
+          co_await write(*c.stream, c.deadline, *owed);
+        }
+        co_return std::nullopt;
+      }
+    }
+    received.request = parser.release();
+    co_return received;
+  }
+
+  // The handler's answer, running its deferred work (a tile to make, a version to load) on the
+  // pools.
+  awaitable<Response> answer(const std::shared_ptr<tcp::socket>& stream, const Request& request) {
+    for (int pass = 0;; ++pass) {
+      Outcome outcome = app.handle(request);
+      Deferred* work = std::get_if<Deferred>(&outcome);
+      if (work == nullptr) co_return std::move(std::get<Response>(outcome));
+      std::optional<Response> made = co_await run_deferred(stream, request, *work);
+      if (made) co_return std::move(*made);
+      // Prepared, but its client hung up meanwhile (run_deferred counted it): the work the
+      // request was loaded for is not started at all.
+      if (work->abandoned->load()) co_return Response{http::status::service_unavailable, 11};
+      // Prepared (its version loaded): handled again, now without loading. Twice at most, so
+      // that a version evicted meanwhile cannot keep a request going round.
+      if (pass == 1) {
+        Response busy = problem(request, http::status::service_unavailable, "Busy",
+                                "the scene version could not be kept loaded; retry shortly");
+        busy.set(http::field::retry_after, "1");
+        co_return busy;
+      }
+    }
+  }
+
+  // What every handled answer gets before it is written: CORS (only here), the framing a
+  // keep-alive client needs, HEAD's empty body, and whether the connection stays open.
+  void finish(const Request& request, Response& response) const {
+    app.add_cors(request, response);
+    const auto code = response.result_int();
+    if (!response.has_content_length() && code != 204 && code != 304 && code >= 200) {
+      response.content_length(response.body().size());
+    }
+    if (request.method() == http::verb::head) {
+      const auto length = response.body().size();
+      response.body().clear();
+      response.content_length(length);
+    }
+    response.keep_alive(response.keep_alive() && !stopping);
+  }
+
   awaitable<void> session(tcp::socket accepted, Worker& worker) {
     const Counted counted(connections);
-    auto stream = std::make_shared<tcp::socket>(std::move(accepted));
-    beast::flat_buffer buffer;
-    Deadline deadline(stream, std::chrono::milliseconds(
-                                  std::min({config.header_timeout_ms, config.idle_timeout_ms,
+    Connection c(
+        std::move(accepted), worker,
+        std::chrono::milliseconds(std::min({config.header_timeout_ms, config.idle_timeout_ms,
                                             config.body_timeout_ms, config.request_timeout_ms})));
-    // Only this worker's thread touches its lists.
-    const auto everywhere = worker.open.insert(worker.open.begin(), stream);
-    auto registration = worker.idle.end();
-    auto set_idle = [&](bool is_idle) {
-      if (registration != worker.idle.end()) worker.idle.erase(registration);
-      registration = is_idle ? worker.idle.insert(worker.idle.begin(), stream) : worker.idle.end();
-    };
-    set_idle(true);
-    bool first = true;
     while (!stopping) {
-      http::request_parser<http::empty_body> header_parser;
-      header_parser.header_limit(static_cast<std::uint32_t>(config.header_limit));
-      // The route's body limit is checked below, once the target is known; the parser's default
-      // (1 MiB) would refuse larger declared bodies as malformed before that.
-      header_parser.body_limit(boost::none);
-      boost::system::error_code ec;
-      deadline.arm(first ? config.header_timeout_ms : config.idle_timeout_ms,
-                   Deadline::Expiry::shut_receive);
-      co_await http::async_read_header(*stream, buffer, header_parser,
-                                       asio::redirect_error(use_awaitable, ec));
-      const bool header_timed_out = deadline.expired();
-      deadline.disarm();
+      http::request_parser<http::empty_body> header;
+      if (!co_await read_header(c, header)) break;
       const auto started = std::chrono::steady_clock::now();
-      if (ec) {
-        if (header_timed_out && !stopping && buffer.size() > 0) {
-          co_await write(*stream, deadline,
-                         unreadable(http::status::request_timeout, "Request timeout",
-                                    "the request header did not arrive in time"));
-        } else if (ec == http::error::header_limit) {
-          co_await write(
-              *stream, deadline,
-              unreadable(http::status::request_header_fields_too_large, "Header too large",
-                         "request headers are limited to " + std::to_string(config.header_limit) +
-                             " bytes"));
-        } else if (!header_timed_out && ec != http::error::end_of_stream &&
-                   ec != asio::error::operation_aborted && ec != asio::error::eof &&
-                   ec != asio::error::connection_reset && ec != asio::error::bad_descriptor) {
-          co_await write(*stream, deadline,
-                         unreadable(http::status::bad_request, "Malformed request", ec.message()));
-        }
-        break;
-      }
-      first = false;
-      set_idle(false);  // busy: not closed by a shutdown
-      const auto& header = header_parser.get();
-      const std::string_view target(header.target().data(), header.target().size());
-      if (beast::websocket::is_upgrade(header) && App::is_live_target(target)) {
-        // A live channel: the connection leaves HTTP for good (docs/live.md).
-        Request upgrade(std::move(header_parser.release().base()));
-        auto opened = app.live_open(upgrade);
-        const double seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-        if (!opened) {
-          Response refusal = std::move(opened).error();
-          app.add_cors(upgrade, refusal);
-          refusal.keep_alive(false);
-          refusal.content_length(refusal.body().size());
-          app.metrics().request("live", static_cast<int>(refusal.result_int()), seconds);
-          co_await write(*stream, deadline, refusal);
-          break;
-        }
-        app.metrics().request("live", 101, seconds);
-        if (stopping) break;
-        worker.open.erase(everywhere);  // the live socket closes itself at shutdown
-        set_idle(false);
-        co_await serve_live(std::move(*stream), std::move(upgrade), std::move(opened).value(), app,
-                            live_sessions, live_messages.get_executor());
+      c.first_request = false;
+      c.set_idle(false);  // busy: not closed by a shutdown
+      const std::string_view target(header.get().target().data(), header.get().target().size());
+      if (beast::websocket::is_upgrade(header.get()) && App::is_live_target(target)) {
+        co_await open_live(c, header, started);
         co_return;
       }
-      // Before a byte of the body: framing that could smuggle a request, the route's limit, the
-      // write token, and room among all the bodies being received (a client without a token
-      // pins no memory).
-      // The header as a request, for the answers below (a copy: only when one is sent).
-      auto head = [&header_parser] { return Request(header_parser.get().base()); };
-      if (const auto framing = check_framing(header)) {
-        const Request request = head();
-        co_await refuse(*stream, deadline, request,
-                        problem(request, framing->status, "Bad framing", framing->detail,
-                                "/headers/transfer-encoding"));
-        break;
-      }
-      const App::BodyPolicy policy = app.body_policy(header.method(), target);
-      const auto declared = header_parser.content_length();
-      const bool has_body = header_parser.chunked() || (declared && *declared > 0);
-      BodyBudget::Reservation room;
-      if (has_body) {
-        const Request request = head();
-        if (policy.limit == 0) {
-          // The route takes no body: answer without reading it, then close.
-          Outcome outcome = app.handle(request);
-          Response response = std::holds_alternative<Response>(outcome)
-                                  ? std::move(std::get<Response>(outcome))
-                                  : problem(request, http::status::bad_request, "Unexpected body",
-                                            "this route takes no request body");
-          co_await refuse(*stream, deadline, request, std::move(response));
-          break;
-        }
-        if (policy.write) {
-          if (Response auth = app.authorize(request); auth.result() != http::status::ok) {
-            co_await refuse(*stream, deadline, request, std::move(auth));
-            break;
-          }
-        }
-        if (declared && static_cast<std::int64_t>(*declared) > policy.limit) {
-          co_await refuse(
-              *stream, deadline, request,
-              problem(request, http::status::payload_too_large, "Body too large",
-                      "this route accepts at most " + std::to_string(policy.limit) + " bytes"));
-          break;
-        }
-        room = bodies.reserve(declared ? static_cast<std::int64_t>(*declared) : policy.limit);
-        if (!room) {
-          Response busy = problem(request, http::status::service_unavailable, "Busy",
-                                  "the server is receiving as many request bodies as it may (" +
-                                      std::to_string(bodies.limit()) + " bytes); retry shortly");
-          busy.set(http::field::retry_after, "1");
-          co_await refuse(*stream, deadline, request, std::move(busy));
-          break;
-        }
-      }
-      http::request_parser<http::string_body> parser(std::move(header_parser));
-      parser.body_limit(static_cast<std::uint64_t>(std::max<std::int64_t>(policy.limit, 0)));
-      if (!parser.is_done()) {  // most requests (GETs) have no body and need no second read
-        deadline.arm(config.body_timeout_ms, Deadline::Expiry::shut_receive);
-        co_await http::async_read(*stream, buffer, parser, asio::redirect_error(use_awaitable, ec));
-        const bool body_timed_out = deadline.expired();
-        deadline.disarm();
-        if (ec) {
-          if (ec == http::error::body_limit) {
-            co_await write(*stream, deadline,
-                           unreadable(http::status::payload_too_large, "Body too large",
-                                      "this route accepts at most " + std::to_string(policy.limit) +
-                                          " bytes"));
-          } else if (body_timed_out) {
-            co_await write(*stream, deadline,
-                           unreadable(http::status::request_timeout, "Request timeout",
-                                      "the request body did not arrive in time"));
-          } else if (ec.category() == http::make_error_code(http::error::bad_target).category() &&
-                     ec != http::error::partial_message && ec != http::error::end_of_stream) {
-            // A malformed body (bad chunk framing, say); a client that went away gets nothing.
-            co_await write(
-                *stream, deadline,
-                unreadable(http::status::bad_request, "Malformed request", ec.message()));
-          }
-          break;
-        }
-      }
-      Request request = parser.release();
-      Response response;
-      for (int pass = 0;; ++pass) {
-        Outcome outcome = app.handle(request);
-        Deferred* work = std::get_if<Deferred>(&outcome);
-        if (work == nullptr) {
-          response = std::move(std::get<Response>(outcome));
-          break;
-        }
-        std::optional<Response> answer = co_await run_deferred(stream, request, *work);
-        if (answer) {
-          response = std::move(*answer);
-          break;
-        }
-        // Prepared, but its client hung up meanwhile (run_deferred counted it): the work the
-        // request was loaded for is not started at all.
-        if (work->abandoned->load()) {
-          response = Response{http::status::service_unavailable, 11};
-          break;
-        }
-        // Prepared (its version loaded): handled again, now without loading. Twice at most, so
-        // that a version evicted meanwhile cannot keep a request going round.
-        if (pass == 1) {
-          response = problem(request, http::status::service_unavailable, "Busy",
-                             "the scene version could not be kept loaded; retry shortly");
-          response.set(http::field::retry_after, "1");
-          break;
-        }
-      }
-      app.add_cors(request, response);  // the one place a handled request's answer gets CORS
-      const auto code = response.result_int();
-      if (!response.has_content_length() && code != 204 && code != 304 && code >= 200) {
-        response.content_length(response.body().size());  // the framing a keep-alive client needs
-      }
-      if (request.method() == http::verb::head) {
-        const auto length = response.body().size();
-        response.body().clear();
-        response.content_length(length);
-      }
-      const bool keep_alive = response.keep_alive() && !stopping;
-      response.keep_alive(keep_alive);
+      std::optional<Received> received = co_await read_body(c, header);
+      if (!received) break;
+      const Request& request = received->request;
+      Response response = co_await answer(c.stream, request);
+      finish(request, response);
       const int status = static_cast<int>(response.result_int());
       // Counted before the write: a client that has its answer finds it in /metrics.
       const double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       const std::string_view route = App::route_label(request);
       app.metrics().request(route, status, seconds);
-      co_await write(*stream, deadline, response);
+      co_await write(*c.stream, c.deadline, response);
       log_request(request, route, status, seconds);
-      if (!keep_alive) break;
-      set_idle(true);
+      if (!response.keep_alive()) break;
+      c.set_idle(true);
     }
-    set_idle(false);
-    worker.open.erase(everywhere);
-    boost::system::error_code ignored;
-    stream->shutdown(tcp::socket::shutdown_send, ignored);
-    stream->close(ignored);
   }
 };
 
