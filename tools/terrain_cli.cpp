@@ -46,12 +46,13 @@ Usage:
                                          scaled to the scene's elevation range, printed)
   terrain render SCENE.json -o OUT.png [--width W] [--height H] [--plain] [--water Z]
                                          sphere-traced picture with simple shading
-  terrain tile SCENE.json Z X Y -o OUT.{png,tif,terrain,glb,drc} [--scheme S] [--encoding E]
+  terrain tile SCENE.json Z X Y -o OUT.{png,jpg,tif,terrain,glb,drc} [--scheme S] [--encoding E]
        [--size N] [--border] [--grid N] [--max-error M] [--regular] [--gunzip]
        [--backend auto|gpu|cpu]
                                          one tile: S = local (default), webmercator or
                                          geographic; E (PNG) = terrain-rgb (default), terrarium,
-                                         gray16, normals, hillshade; .terrain (quantized-mesh,
+                                         gray16, normals, hillshade, color (imagery; also
+                                         .jpg); .terrain (quantized-mesh,
                                          geographic only) is written gzipped as served unless
                                          --gunzip; prints what it wrote as JSON, with the
                                          evaluator (backend, default cpu; gpu = EGL compute)

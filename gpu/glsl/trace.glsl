@@ -3,9 +3,10 @@
 // al. 2015 over a LipschitzGrid, Camera::ray, and render()'s sky, materials, sun and fog),
 // operation for operation, so that a pixel's ray, steps and hit distance are the CPU's.
 //
-// Needs, before it: the shared GLSL (portable_math, noise, nodes, interpreter) and from the
-// prelude fetch_bounds(i), the floats of terrain::LipschitzGrid::pack() (a storage buffer on the
-// server; a texture in the browser). It declares no uniform or buffer and no entry point: the
+// Needs, before it: the shared GLSL (portable_math, noise, nodes, interpreter), material.glsl
+// (the ground's colours, which trace_glsl() puts first) and from the prelude fetch_bounds(i), the
+// floats of terrain::LipschitzGrid::pack() (a storage buffer on the server; a texture in the
+// browser). It declares no uniform or buffer and no entry point: the
 // caller fills TraceCamera and TraceSetup (from uniforms) and calls trace_pixel. GLSL ES 3.00
 // compatible (TERRAIN_PRECISE may be empty there; the browser then rounds like its GPU does).
 
@@ -202,17 +203,10 @@ void trace_advance(TraceSetup s, vec3 origin, vec3 direction, inout TraceState s
   }
 }
 
-// mix() as sphere_trace.cpp writes it (GLSL's built-in may round differently).
-vec3 trace_mix(vec3 a, vec3 b, float t) {
-  TERRAIN_PRECISE vec3 r = vec3(a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t,
-                                a.z + (b.z - a.z) * t);
-  return r;
-}
-
 vec3 trace_sky(vec3 direction) {
   TERRAIN_PRECISE float u = direction.z * 2.0 + 0.3;
   float t = clamp(u, 0.0, 1.0);
-  return trace_mix(vec3(0.80, 0.86, 0.92), vec3(0.33, 0.55, 0.85), t);
+  return colour_mix(vec3(0.80, 0.86, 0.92), vec3(0.33, 0.55, 0.85), t);
 }
 
 vec3 trace_shade(TraceSetup s, Field field, float z) {
@@ -221,19 +215,8 @@ vec3 trace_shade(TraceSetup s, Field field, float z) {
   TERRAIN_PRECISE float slope = sqrt(1.0 - min(1.0, nz2));  // sine of the slope angle
   TERRAIN_PRECISE float width = s.z_hi - s.z_lo;
   TERRAIN_PRECISE float height = width > 0.0 ? (z - s.z_lo) / width : 0.5;
-  TERRAIN_PRECISE float by_height = height * 1.4;
-  vec3 ground = trace_mix(vec3(0.32, 0.45, 0.20), vec3(0.55, 0.50, 0.38),
-                          clamp(by_height, 0.0, 1.0));
-  TERRAIN_PRECISE float by_slope = (slope - 0.45) * 4.0;
-  ground = trace_mix(ground, vec3(0.45, 0.42, 0.40), clamp(by_slope, 0.0, 1.0));
-  if (height > 0.8 && slope < 0.6) {
-    TERRAIN_PRECISE float snow = (height - 0.8) * 5.0;
-    ground = trace_mix(ground, vec3(0.95, 0.96, 0.98), snow);
-  }
-  if (z < s.water_level) ground = vec3(0.12, 0.30, 0.45);
-  TERRAIN_PRECISE float lit = n.x * s.sun.x + n.y * s.sun.y + n.z * s.sun.z;
-  float diffuse = max(0.0, lit);
-  TERRAIN_PRECISE float light = 0.30 + 0.75 * diffuse;
+  vec3 ground = material_albedo(height, slope, z < s.water_level);
+  float light = material_sun_light(n, s.sun);
   TERRAIN_PRECISE vec3 colour = vec3(ground.x * light, ground.y * light, ground.z * light);
   return colour;
 }
@@ -248,7 +231,7 @@ TracePixel trace_finish(TraceSetup s, vec3 origin, vec3 direction, TraceState st
     vec3 surface = trace_shade(s, evaluate_program(p.xy, spacing), p.z);
     TERRAIN_PRECISE float scale = 2.5 * s.span;
     TERRAIN_PRECISE float fog = 1.0 - exp(-state.t / scale);
-    out_pixel.colour = trace_mix(surface, vec3(0.80, 0.86, 0.92), fog);
+    out_pixel.colour = colour_mix(surface, vec3(0.80, 0.86, 0.92), fog);
     out_pixel.depth = state.t;
   }
   return out_pixel;

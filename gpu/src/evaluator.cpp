@@ -241,7 +241,8 @@ std::pair<int, int> shader_stacks(const terrain::Program& program) {
 }
 
 std::string_view trace_glsl() {
-  return glsl::trace();
+  static const std::string text = std::string(glsl::material()) + "\n" + std::string(glsl::trace());
+  return text;
 }
 
 namespace {
@@ -280,7 +281,7 @@ std::string compute_shader_source(const ProgramShader& shader) {
 }
 
 std::string trace_shader_source(const ProgramShader& shader) {
-  return shader_header(shader) + std::string(glsl::trace()) + "\n" +
+  return shader_header(shader) + std::string(trace_glsl()) + "\n" +
          std::string(glsl::compute_trace_main()) + "\n" + shader.unrolled;
 }
 

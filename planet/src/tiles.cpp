@@ -54,6 +54,8 @@ terrain::ProductConstants PlanetTiles::constants_at(int z) const {
   terrain::ProductConstants c;
   const terrain::Interval range = planet().elevation_range();
   c.gray16 = terrain::gray16_encoding_for(range);
+  // Colours measure the relief from sea level: the lowlands of every continent are green.
+  c.relief = {0.0f, std::max(range.hi, 1.0f)};
   const double span = static_cast<double>(range.hi) - range.lo;
   c.edge_quantum = terrain::edge_quantum_for(range.lo, range.hi);
   c.position_quantum = terrain::position_quantum_for(
@@ -249,9 +251,13 @@ Result<std::vector<std::uint8_t>> PlanetTiles::water_mask(const TileAddress& add
 Result<terrain::Product> PlanetTiles::make(TileScheme scheme, const TileAddress& address,
                                            TileFormat format,
                                            const terrain::ProductOptions& options) {
-  Result<HeightTile> tile = height_tile(scheme, address, format, options);
+  if (terrain::Status s = validate(scheme, address, format, options); !s) return s.error();
+  terrain::ProductExtras extras;
+  // Colour tiles show the water of their own samples: sea, lakes and rivers.
+  const bool color = terrain::is_color(format);
+  Result<HeightTile> tile =
+      evaluate(request_for(scheme, address, format, options), color ? &extras.water : nullptr);
   if (!tile) return tile.error();
-  terrain::MeshExtras extras;
   if (format == TileFormat::quantized_mesh) {
     if (options.watermask) {
       Result<std::vector<std::uint8_t>> mask = water_mask(address);

@@ -543,11 +543,8 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
                      "TileJSON describes XYZ tiles: scheme webmercator (default) or local",
                      "/scheme");
     }
-    const std::string encoding = target.get("encoding", "terrain-rgb");
-    if (encoding != "terrain-rgb" && encoding != "terrarium") {
-      return problem(request, http::status::bad_request, "Bad encoding",
-                     "TileJSON for raster-dem: encoding terrain-rgb or terrarium", "/encoding");
-    }
+    auto images = parse_tilejson_images(request, target.query);
+    if (!images) return images.error();
     terrain::ProductMaker maker(*loaded.source);
     auto origin_or = public_origin(request);
     if (!origin_or) return origin_or.error();
@@ -558,12 +555,12 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
               {"version", "1.0.0"},
               {"scheme", "xyz"},
               {"tiles",
-               {origin + "/api/v1/scenes/" + pinned_ref +
-                "/tiles/{z}/{x}/{y}.png?encoding=" + encoding + "&scheme=" + scheme_name}},
+               {origin + "/api/v1/scenes/" + pinned_ref + images->tiles_path() +
+                "&scheme=" + scheme_name}},
               {"minzoom", 0},
               {"maxzoom", maker.constants().max_useful_zoom[static_cast<int>(*scheme)]},
-              {"tileSize", 256},
-              {"encoding", encoding == "terrain-rgb" ? "mapbox" : "terrarium"}};
+              {"tileSize", 256}};
+    images->describe(body);
     if (*scheme == terrain::TileScheme::webmercator) {
       const terrain::Georeference& g = loaded.source->georeference;
       const terrain::TileRange r =
@@ -601,7 +598,9 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   const double samples =
       mesh ? static_cast<double>(options.grid) * options.grid +
                  (options.watermask && loaded.source->water ? 65536.0 : 0.0)
-           : static_cast<double>(options.size + 2 * border) * (options.size + 2 * border);
+           : static_cast<double>(options.size + 2 * border) * (options.size + 2 * border) *
+                 (terrain::is_color(query->format) && loaded.source->water ? 2.0
+                                                                           : 1.0);  // and water
   const double cost = samples * static_cast<double>(std::max<std::size_t>(program.code.size(), 1));
   if (cost > config_.max_cost) {
     return problem(request, http::status::unprocessable_entity, "Too costly",

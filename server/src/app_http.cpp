@@ -106,6 +106,35 @@ std::string detail::query_value(const std::map<std::string, std::string>& query,
   return it == query.end() ? fallback : it->second;
 }
 
+std::string detail::TileJsonImages::tiles_path() const {
+  return "/tiles/{z}/{x}/{y}." + extension + "?encoding=" + encoding;
+}
+
+void detail::TileJsonImages::describe(nlohmann::json& tilejson) const {
+  if (!color) tilejson["encoding"] = encoding == "terrain-rgb" ? "mapbox" : "terrarium";
+}
+
+terrain::Result<detail::TileJsonImages, Response> detail::parse_tilejson_images(
+    const Request& request, const std::map<std::string, std::string>& query) {
+  TileJsonImages images;
+  images.encoding = query_value(query, "encoding", "terrain-rgb");
+  images.color = images.encoding == "color";
+  if (!images.color && images.encoding != "terrain-rgb" && images.encoding != "terrarium") {
+    return problem(request, http::status::bad_request, "Bad encoding",
+                   "TileJSON describes height tiles (encoding terrain-rgb or terrarium, for "
+                   "raster-dem sources) or colour imagery (encoding color, for raster sources)",
+                   "/encoding");
+  }
+  images.extension = query_value(query, "format", "png");
+  if (images.extension != "png" && (images.extension != "jpg" || !images.color)) {
+    return problem(request, http::status::bad_request, "Bad format",
+                   images.color ? "colour imagery comes as png (default) or jpg"
+                                : "height tiles come as png only",
+                   "/format");
+  }
+  return images;
+}
+
 terrain::Result<detail::TileQuery, Response> detail::parse_tile_query(
     const Request& request, const std::vector<std::string>& rest,
     const std::map<std::string, std::string>& query, bool planet) {

@@ -78,6 +78,21 @@ struct TileQuery {
   }
 };
 
+// What a TileJSON describes: height images for raster-dem sources (encoding terrain-rgb, the
+// default, or terrarium; PNG) or colour imagery for raster sources (encoding color; format png,
+// the default, or jpg).
+struct TileJsonImages {
+  std::string encoding;
+  std::string extension;  ///< "png" or "jpg"
+  bool color = false;
+  // The tiles' URL from the product onward: "/tiles/{z}/{x}/{y}.png?encoding=color".
+  std::string tiles_path() const;
+  // TileJSON's fields for these images: raster-dem's "encoding" for heights.
+  void describe(nlohmann::json& tilejson) const;
+};
+terrain::Result<TileJsonImages, Response> parse_tilejson_images(
+    const Request& request, const std::map<std::string, std::string>& query);
+
 // Parses /tiles/{z}/{x}/{y}.{ext} or /mesh/{z}/{x}/{y}.{ext} (rest = those four segments) with
 // the query's scheme, encoding, size, border, grid and max_error. `planet`: geographic is the
 // default scheme and local is refused (PlanetTiles::validate checks the rest).

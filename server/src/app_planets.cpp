@@ -307,49 +307,46 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
                      "(EPSG:3857 XYZ, for MapLibre)",
                      "/scheme");
     }
-    const std::string encoding = target.get("encoding", "terrain-rgb");
-    if (encoding != "terrain-rgb" && encoding != "terrarium") {
-      return problem(request, http::status::bad_request, "Bad encoding",
-                     "TileJSON for height tiles: encoding terrain-rgb or terrarium", "/encoding");
-    }
+    auto images = parse_tilejson_images(request, target.query);
+    if (!images) return images.error();
+    const std::string what = images->color ? "colour imagery" : "height tiles";
     auto origin_or = public_origin(request);
     if (!origin_or) return origin_or.error();
     const std::string origin = std::move(origin_or).value();
     if (scheme == "webmercator") {  // MapLibre's raster-dem sources are EPSG:3857 only
       const double limit =
           terrain::web_mercator_latitude(std::numbers::pi * terrain::kWebMercatorRadius);
-      return finish_json(
-          {{"tilejson", "3.0.0"},
-           {"name", "planet " + id.substr(0, 12)},
-           {"description", "Web Mercator (EPSG:3857) XYZ height tiles of seeded planet " + id},
-           {"version", "1.0.0"},
-           {"scheme", "xyz"},
-           {"tiles",
-            {origin + base + "/tiles/{z}/{x}/{y}.png?scheme=webmercator&encoding=" + encoding}},
-           {"minzoom", 0},
-           {"maxzoom", terrain::max_zoom(terrain::TileScheme::webmercator)},
-           {"tileSize", 256},
-           {"bounds", {-180.0, -limit, 180.0, limit}},
-           {"center", {20.0, 15.0, 2}},
-           {"encoding", encoding == "terrain-rgb" ? "mapbox" : "terrarium"}});
+      json body{{"tilejson", "3.0.0"},
+                {"name", "planet " + id.substr(0, 12)},
+                {"description", "Web Mercator (EPSG:3857) XYZ " + what + " of seeded planet " + id},
+                {"version", "1.0.0"},
+                {"scheme", "xyz"},
+                {"tiles", {origin + base + images->tiles_path() + "&scheme=webmercator"}},
+                {"minzoom", 0},
+                {"maxzoom", terrain::max_zoom(terrain::TileScheme::webmercator)},
+                {"tileSize", 256},
+                {"bounds", {-180.0, -limit, 180.0, limit}},
+                {"center", {20.0, 15.0, 2}}};
+      images->describe(body);
+      return finish_json(body);
     }
     // Geographic TMS tiles (EPSG:4326, two tiles at zoom 0, rows counted from the south): for
     // Cesium and GIS clients.
-    return finish_json({{"tilejson", "3.0.0"},
-                        {"name", "planet " + id.substr(0, 12)},
-                        {"description",
-                         "geographic (EPSG:4326) TMS height tiles, two at zoom 0; for MapLibre "
-                         "ask for scheme=webmercator"},
-                        {"version", "1.0.0"},
-                        {"scheme", "tms"},
-                        {"crs", "EPSG:4326"},
-                        {"tiles", {origin + base + "/tiles/{z}/{x}/{y}.png?encoding=" + encoding}},
-                        {"minzoom", 0},
-                        {"maxzoom", planet::PlanetTiles::max_zoom()},
-                        {"tileSize", 256},
-                        {"bounds", {-180.0, -90.0, 180.0, 90.0}},
-                        {"center", {0.0, 0.0, 1}},
-                        {"encoding", encoding == "terrain-rgb" ? "mapbox" : "terrarium"}});
+    json body{{"tilejson", "3.0.0"},
+              {"name", "planet " + id.substr(0, 12)},
+              {"description", "geographic (EPSG:4326) TMS " + what +
+                                  ", two at zoom 0; for MapLibre ask for scheme=webmercator"},
+              {"version", "1.0.0"},
+              {"scheme", "tms"},
+              {"crs", "EPSG:4326"},
+              {"tiles", {origin + base + images->tiles_path()}},
+              {"minzoom", 0},
+              {"maxzoom", planet::PlanetTiles::max_zoom()},
+              {"tileSize", 256},
+              {"bounds", {-180.0, -90.0, 180.0, 90.0}},
+              {"center", {0.0, 0.0, 1}}};
+    images->describe(body);
+    return finish_json(body);
   }
 
   const ReplyContext reply_base = ReplyContext::of(request, cache_control);

@@ -281,8 +281,8 @@ Status check_dimensions(int width, int height, const void* data) {
 // set; DateTime is pinned empty because the TIFF and OpenEXR writers otherwise stamp the current
 // time, which would make the bytes differ from one second to the next.
 Result<std::vector<std::uint8_t>> encode_impl(const char* format, int width, int height,
-                                              int channels, OIIO::TypeDesc type,
-                                              const void* pixels) {
+                                              int channels, OIIO::TypeDesc type, const void* pixels,
+                                              int jpeg_quality = 0) {
   if (Status ok = check_dimensions(width, height, pixels); !ok) return ok.error();
   std::vector<unsigned char> bytes;
   OIIO::Filesystem::IOVecOutput proxy(bytes);
@@ -299,6 +299,7 @@ Result<std::vector<std::uint8_t>> encode_impl(const char* format, int width, int
   // tile within its 10 ms budget (docs/performance.md).
   spec.attribute("compression", "zip:1");
   spec.attribute("png:compressionLevel", 1);
+  if (jpeg_quality > 0) spec.attribute("compression", "jpeg:" + std::to_string(jpeg_quality));
   if (!out->open(std::string("memory.") + format, spec)) {
     return fail(std::string("cannot encode ") + format + ": " + output_message(out.get()));
   }
@@ -374,6 +375,14 @@ Result<std::vector<std::uint8_t>> encode_png_gray8(int width, int height,
 Result<std::vector<std::uint8_t>> encode_png_rgb8(int width, int height, const std::uint8_t* rgb) {
   return guarded("cannot encode PNG",
                  [&] { return encode_impl("png", width, height, 3, OIIO::TypeDesc::UINT8, rgb); });
+}
+
+Result<std::vector<std::uint8_t>> encode_jpeg_rgb8(int width, int height, const std::uint8_t* rgb,
+                                                   int quality) {
+  if (quality < 1 || quality > 100) return fail("JPEG quality must be 1..100");
+  return guarded("cannot encode JPEG", [&] {
+    return encode_impl("jpeg", width, height, 3, OIIO::TypeDesc::UINT8, rgb, quality);
+  });
 }
 
 Status write_float_tiff(const std::string& path, int width, int height, const float* samples) {

@@ -7,6 +7,8 @@
 #include <numbers>
 #include <thread>
 
+#include "terrain/material.hpp"
+
 namespace terrain {
 namespace {
 
@@ -252,14 +254,6 @@ Camera default_camera(const Program& program, const Box2& area, int width, int h
 
 namespace {
 
-struct Rgb {
-  float r, g, b;
-};
-
-Rgb mix(Rgb a, Rgb b, float t) {
-  return {a.r + (b.r - a.r) * t, a.g + (b.g - a.g) * t, a.b + (b.b - a.b) * t};
-}
-
 Rgb sky(const Ray& ray) {
   const float t = std::clamp(ray.direction.z * 2.0f + 0.3f, 0.0f, 1.0f);
   return mix({0.80f, 0.86f, 0.92f}, {0.33f, 0.55f, 0.85f}, t);
@@ -267,22 +261,13 @@ Rgb sky(const Ray& ray) {
 
 Rgb shade(const FieldSample& s, float z, const Interval& range, float water_level) {
   const Vec3 n = normalise({-s.elevation_gradient.x, -s.elevation_gradient.y, 1.0f});
-  const float slope = std::sqrt(1.0f - std::min(1.0f, n.z * n.z));  // sine of the slope angle
-  const float height = range.width() > 0 ? (z - range.lo) / range.width() : 0.5f;
-  Rgb ground =
-      mix({0.32f, 0.45f, 0.20f}, {0.55f, 0.50f, 0.38f}, std::clamp(height * 1.4f, 0.0f, 1.0f));
-  ground = mix(ground, {0.45f, 0.42f, 0.40f}, std::clamp((slope - 0.45f) * 4.0f, 0.0f, 1.0f));
-  if (height > 0.8f && slope < 0.6f)
-    ground = mix(ground, {0.95f, 0.96f, 0.98f}, (height - 0.8f) * 5.0f);
-  if (z < water_level) ground = {0.12f, 0.30f, 0.45f};
-  const Vec3 sun = sun_direction();
-  const float diffuse = std::max(0.0f, n.x * sun.x + n.y * sun.y + n.z * sun.z);
-  const float light = 0.30f + 0.75f * diffuse;
+  MaterialInput input;
+  input.slope = std::sqrt(1.0f - std::min(1.0f, n.z * n.z));  // sine of the slope angle
+  input.height = range.width() > 0 ? (z - range.lo) / range.width() : 0.5f;
+  input.water = z < water_level;
+  const Rgb ground = material_albedo(input);
+  const float light = sun_light(n, sun_direction());
   return {ground.r * light, ground.g * light, ground.b * light};
-}
-
-std::uint8_t to_byte(float v) {
-  return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
 }
 
 }  // namespace
@@ -346,9 +331,9 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
           color = mix(surface, {0.80f, 0.86f, 0.92f}, fog);
           picture.depth[at] = hit.t;
         }
-        picture.rgb[at * 3 + 0] = to_byte(color.r);
-        picture.rgb[at * 3 + 1] = to_byte(color.g);
-        picture.rgb[at * 3 + 2] = to_byte(color.b);
+        picture.rgb[at * 3 + 0] = colour_byte(color.r);
+        picture.rgb[at * 3 + 1] = colour_byte(color.g);
+        picture.rgb[at * 3 + 2] = colour_byte(color.b);
       }
       ++rows_done;
     }

@@ -27,6 +27,8 @@ const std::vector<TileFormatInfo>& tile_formats() {
       {TileFormat::gray16, "png", "gray16", "image/png", false},
       {TileFormat::normal_map, "png", "normals", "image/png", false},
       {TileFormat::hillshade, "png", "hillshade", "image/png", false},
+      {TileFormat::color_png, "png", "color", "image/png", false},
+      {TileFormat::color_jpeg, "jpg", "color", "image/jpeg", false},
       {TileFormat::geotiff, "tif", "", "image/tiff", false},
       {TileFormat::quantized_mesh, "terrain", "", "application/vnd.quantized-mesh", true},
       {TileFormat::glb, "glb", "", "model/gltf-binary", true},
@@ -44,30 +46,36 @@ const TileFormatInfo& format_info(TileFormat format) {
 }
 
 Result<TileFormat> parse_tile_format(std::string_view extension, std::string_view encoding) {
-  bool extension_known = false;
+  std::string extensions;  // the lists in the messages, from the table
+  std::string encodings;
+  const TileFormatInfo* fallback = nullptr;
   for (const TileFormatInfo& info : tile_formats()) {
-    if (info.extension != extension) continue;
-    extension_known = true;
-    if (info.encoding == encoding || (encoding.empty() && info.format == TileFormat::terrain_rgb)) {
-      return info.format;
+    if (extensions.find(std::string(info.extension) + ",") == std::string::npos) {
+      extensions += std::string(info.extension) + ", ";
     }
+    if (info.extension != extension) continue;
+    if (fallback == nullptr) fallback = &info;
+    if (info.encoding == encoding) return info.format;
+    if (!info.encoding.empty()) encodings += std::string(info.encoding) + ", ";
   }
-  if (!extension_known) {
-    return Error{"unknown tile format '" + std::string(extension) +
-                     "' (expected png, tif, terrain, glb or drc)",
+  if (fallback == nullptr) {
+    return Error{"unknown tile format '" + std::string(extension) + "' (expected " +
+                     extensions.substr(0, extensions.size() - 2) + ")",
                  "/format", ErrorKind::not_found};
   }
-  if (extension == "png") {
-    return Error{"unknown PNG encoding '" + std::string(encoding) +
-                     "' (expected terrain-rgb, terrarium, gray16, normals or hillshade)",
-                 "/encoding"};
+  if (encoding.empty()) return fallback->format;
+  if (encodings.empty()) {
+    return Error{"the ." + std::string(extension) + " format takes no encoding", "/encoding"};
   }
-  return Error{"the ." + std::string(extension) + " format takes no encoding", "/encoding"};
+  return Error{"unknown ." + std::string(extension) + " encoding '" + std::string(encoding) +
+                   "' (expected " + encodings.substr(0, encodings.size() - 2) + ")",
+               "/encoding"};
 }
 
 ProductMaker::ProductMaker(TileSource source) : generator_(std::move(source)) {
   const TileSource& s = generator_.source();
   constants_.gray16 = gray16_encoding_for(s.elevation_range);
+  constants_.relief = s.elevation_range;
   const double range = static_cast<double>(s.elevation_range.hi) - s.elevation_range.lo;
   constants_.edge_quantum = edge_quantum_for(s.elevation_range.lo, s.elevation_range.hi);
   // Positions span the scene's square; skirts reach below it by at most a few tens of metres
@@ -175,7 +183,7 @@ TileMesh triangulate_for(const HeightTile& tile, const ProductOptions& options, 
 
 Result<Product> encode_product(const HeightTile& tile, TileFormat format,
                                const ProductOptions& options, const ProductConstants& constants,
-                               const Georeference& georeference, MeshExtras extras) {
+                               const Georeference& georeference, ProductExtras extras) {
   Product product;
   product.media_type = std::string(format_info(format).media_type);
   Result<std::vector<std::uint8_t>> bytes = std::vector<std::uint8_t>{};
@@ -195,6 +203,15 @@ Result<Product> encode_product(const HeightTile& tile, TileFormat format,
     case TileFormat::hillshade:
       bytes = encode_hillshade(tile);
       break;
+    case TileFormat::color_png:
+    case TileFormat::color_jpeg: {
+      ColorTileInputs inputs;
+      inputs.relief = constants.relief;
+      inputs.water = extras.water;
+      bytes = encode_color(tile, inputs,
+                           format == TileFormat::color_png ? ColorCodec::png : ColorCodec::jpeg);
+      break;
+    }
     case TileFormat::geotiff:
       bytes = encode_geotiff(tile, georeference);
       break;
@@ -231,9 +248,14 @@ Result<Product> encode_product(const HeightTile& tile, TileFormat format,
 
 Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address, TileFormat format,
                                    const ProductOptions& options) {
-  Result<HeightTile> generated = height_tile(scheme, address, format, options);
+  if (Status s = validate(scheme, address, format, options); !s) return s.error();
+  ProductExtras extras;
+  const bool color = is_color(format);
+  Result<HeightTile> generated =
+      color ? generator_.height_tile_with_water(request_for(scheme, address, format, options),
+                                                extras.water)
+            : generator_.height_tile(request_for(scheme, address, format, options));
   if (!generated) return generated.error();
-  MeshExtras extras;
   if (format == TileFormat::quantized_mesh) {
     if (options.watermask) {
       Result<std::vector<std::uint8_t>> mask = generator_.water_mask(scheme, address);

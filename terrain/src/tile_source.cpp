@@ -403,27 +403,36 @@ Result<HeightTile> TileGenerator::height_tile(const TileRequest& request,
   return tile;
 }
 
-Result<std::vector<std::uint8_t>> TileGenerator::water_mask(TileScheme scheme,
-                                                            const TileAddress& address) {
-  if (!water_) return std::vector<std::uint8_t>{0};
-  TileRequest request{scheme, address, SampleLayout::cell_centres, 256, 0};
+Result<HeightTile> TileGenerator::height_tile_with_water(const TileRequest& request,
+                                                         std::vector<std::uint8_t>& water) {
+  water.clear();
   std::vector<std::uint8_t> mapped;  // the samples' positions are placed once, for both trees
   Result<HeightTile> terrain = height_tile(request, mapped);
-  if (!terrain) return terrain.error();
+  if (!terrain || !water_) return terrain;
   const HeightTile& tile = *terrain;
   std::vector<float> surface(tile.elevation.size(), -1e30f);
   std::vector<float> weight(tile.elevation.size(), 0.0f);
   evaluate(*water_, tile, mapped, static_cast<float>(tile.ground_spacing), surface, nullptr,
            nullptr, &weight);
-  std::vector<std::uint8_t> mask(tile.elevation.size());
-  bool any_land = false, any_water = false;
-  for (std::size_t i = 0; i < mask.size(); ++i) {
-    const bool wet = weight[i] >= 0.5f && surface[i] > tile.elevation[i];
-    mask[i] = wet ? 255 : 0;
-    (wet ? any_water : any_land) = true;
+  water.resize(tile.elevation.size());
+  for (std::size_t i = 0; i < water.size(); ++i) {
+    water[i] = weight[i] >= 0.5f && surface[i] > tile.elevation[i] ? 1 : 0;
   }
+  return terrain;
+}
+
+Result<std::vector<std::uint8_t>> TileGenerator::water_mask(TileScheme scheme,
+                                                            const TileAddress& address) {
+  if (!water_) return std::vector<std::uint8_t>{0};
+  std::vector<std::uint8_t> mask;
+  Result<HeightTile> terrain =
+      height_tile_with_water({scheme, address, SampleLayout::cell_centres, 256, 0}, mask);
+  if (!terrain) return terrain.error();
+  const bool any_water = std::find(mask.begin(), mask.end(), 1) != mask.end();
+  const bool any_land = std::find(mask.begin(), mask.end(), 0) != mask.end();
   if (!any_water) return std::vector<std::uint8_t>{0};
   if (!any_land) return std::vector<std::uint8_t>{255};
+  for (std::uint8_t& m : mask) m = m != 0 ? 255 : 0;
   return mask;
 }
 

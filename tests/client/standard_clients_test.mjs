@@ -219,11 +219,17 @@ async function openCesium(name, query) {
     const r = window.terrainExample;
     const levels = r.viewer.scene.globe._surface._tilesToRender.map((t) => t.level);
     return { errors: r.errors, drawnTiles: r.drawnTiles, tileRequests: r.tileRequests,
-             tilesReceived: r.tilesReceived, levels: [...new Set(levels)].sort((a, b) => a - b) };
+             tilesReceived: r.tilesReceived, imageryReceived: r.imageryReceived,
+             levels: [...new Set(levels)].sort((a, b) => a - b) };
   });
   console.log(`     ${name}: ${report.tileRequests} tile requests, ${report.tilesReceived} meshes ` +
-              `decoded, ${report.drawnTiles} tiles drawn at levels ${report.levels.join(', ')}`);
+              `decoded, ${report.imageryReceived} colour tiles, ${report.drawnTiles} tiles drawn ` +
+              `at levels ${report.levels.join(', ')}`);
   check(report.drawnTiles > 0 && report.tilesReceived > 0, `${name}: tiles drawn`);
+  const colour = seen.responses.filter((r) => /\/tiles\/.*\.jpg\?encoding=color/.test(r.url));
+  check(report.imageryReceived > 0 && colour.length > 0 &&
+        colour.every((r) => r.status === 200 || r.status === 304),
+        `${name}: colour imagery tiles draped (${colour.length} answered)`);
   checkNoErrors(page, seen, report, name);
   await checkPicture(page, name);
   return { ...opened, levels: report.levels };
@@ -392,6 +398,9 @@ async function maplibre(name, query, samplerFor) {
                                               dem: window.terrainExample.demTilesLoaded }));
   console.log(`     ${name}: ${report.dem.length} DEM tiles decoded`);
   check(report.dem.length > 0, `${name}: DEM tiles loaded`);
+  const colour = seen.responses.filter((r) => /\/tiles\/.*\.jpg\?encoding=color/.test(r.url));
+  check(colour.length > 0 && colour.every((r) => r.status === 200 || r.status === 304),
+        `${name}: colour imagery tiles draped (${colour.length} answered)`);
   checkNoErrors(page, seen, report, name);
   await checkPicture(page, name);
 

@@ -71,7 +71,7 @@ TEST(ErrorKinds, EachKindHasItsStatusAndAnInternalErrorIsNotTheCallersFault) {
 }
 
 TEST_F(AppTest, AnUnknownTileFormatIs404AndAnUnknownEncoding400) {
-  EXPECT_EQ(get("/api/v1/scenes/craters@1/tiles/0/0/0.jpg").result(), http::status::not_found);
+  EXPECT_EQ(get("/api/v1/scenes/craters@1/tiles/0/0/0.webp").result(), http::status::not_found);
   EXPECT_EQ(get("/api/v1/scenes/craters@1/tiles/0/0/0.png?encoding=rainbow").result(),
             http::status::bad_request);
 }

@@ -241,6 +241,32 @@ TEST_F(HttpApi, PngTilesDecodeAs256By256InEveryEncoding) {
   }
 }
 
+TEST_F(HttpApi, ColorTilesArePngOrJpegImageryDescribedByTileJson) {
+  const std::string tiles = "/api/v1/scenes/lake-dunes@1/tiles/1/0/0";
+  const Response png = get(tiles + ".png?scheme=local&encoding=color");
+  ASSERT_EQ(png.result_int(), 200u) << png.body();
+  EXPECT_EQ(header(png, http::field::content_type), "image/png");
+  const auto raster = terrain::decode_heightfield(bytes_of(png.body()), "png");
+  ASSERT_TRUE(raster.ok()) << raster.error().message;
+  EXPECT_EQ(raster->width, 256);
+  const Response jpeg = get(tiles + ".jpg?scheme=local");  // colour is JPEG's only encoding
+  ASSERT_EQ(jpeg.result_int(), 200u) << jpeg.body();
+  EXPECT_EQ(header(jpeg, http::field::content_type), "image/jpeg");
+  EXPECT_EQ(header(jpeg, http::field::cache_control), "public, max-age=31536000, immutable");
+  EXPECT_EQ(jpeg.body(), get(tiles + ".jpg?scheme=local&encoding=color").body());
+
+  // A raster source's TileJSON: no raster-dem encoding, tiles in the format asked for.
+  const Response r = get("/api/v1/scenes/lake-dunes/tilejson.json?encoding=color&format=jpg");
+  ASSERT_EQ(r.result_int(), 200u) << r.body();
+  const json body = body_json(r);
+  EXPECT_FALSE(body.contains("encoding")) << body.dump();
+  EXPECT_NE(body["tiles"][0].get<std::string>().find(
+                "/api/v1/scenes/lake-dunes@1/tiles/{z}/{x}/{y}.jpg?encoding=color&scheme="
+                "webmercator"),
+            std::string::npos)
+      << body.dump();
+}
+
 TEST_F(HttpApi, TileSizeAndBorderOptionsShapeThePng) {
   const Response r =
       get("/api/v1/scenes/hills-river@1/tiles/1/1/0.png?scheme=local&size=64&border=1");
@@ -687,7 +713,7 @@ TEST_F(HttpApi, MalformedTileRequestsAre400Or404WithAPointer) {
       {s + "/tiles/0/0/99999999999999999999.png", 400, "/y"},
       {s + "/tiles/1.5/0/0.png", 400, "/z"},
       {s + "/tiles/0/0x1/0.png", 400, "/x"},
-      {s + "/tiles/0/0/0.jpg", 404, "/format"},
+      {s + "/tiles/0/0/0.webp", 404, "/format"},
       {s + "/tiles/0/0/0", 404, "/format"},
       {s + "/tiles/0/0/0.terrain", 404, "/format"},
       {s + "/mesh/0/0/0.png", 404, "/format"},
@@ -710,6 +736,9 @@ TEST_F(HttpApi, MalformedTileRequestsAre400Or404WithAPointer) {
       {s + "/sample?x=0&y=0&lod=-1", 400, "/lod"},
       {s + "/tilejson.json?scheme=geographic", 400, "/scheme"},
       {s + "/tilejson.json?encoding=gray16", 400, "/encoding"},
+      {s + "/tilejson.json?encoding=color&format=gif", 400, "/format"},
+      {s + "/tilejson.json?format=jpg", 400, "/format"},
+      {s + "/tiles/0/0/0.jpg?encoding=terrarium", 400, "/encoding"},
       {"/api/v1/scenes/Hills-River/program", 400, "/id"},
       {"/api/v1/scenes/hills-river@0/program", 400, "/version"},
       {"/api/v1/scenes/hills-river@x/program", 400, "/version"},

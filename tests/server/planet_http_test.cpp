@@ -153,7 +153,9 @@ TEST_F(HttpPlanets, BadInputIsAProblemNamingTheFieldAndStoresNothing) {
   expect_problem(get(p + "/mesh/1/0/0.drc?max_error=-1"), 400, "/max_error");
   expect_problem(get(p + "/tiles/1/0/0.png?encoding=sepia"), 400, "/encoding");
   expect_problem(get(p + "/tilejson.json?encoding=gray16"), 400, "/encoding");
-  expect_problem(get(p + "/tiles/1/0/0.jpg"), 404, "/format");
+  expect_problem(get(p + "/tilejson.json?encoding=color&format=tif"), 400, "/format");
+  expect_problem(get(p + "/tiles/1/0/0.jpg?encoding=gray16"), 400, "/encoding");
+  expect_problem(get(p + "/tiles/1/0/0.webp"), 404, "/format");
   expect_problem(get(p + "/tiles/1/0/0.terrain"), 404, "/format");
   expect_problem(get(p + "/volcanoes"), 404, "");
   expect_problem(get("/api/v1/planets/" + std::string(64, '0') + "/tiles/1/0/0.png"), 404, "");
@@ -311,7 +313,7 @@ TEST_F(HttpPlanets, LayerJsonAndTileJsonDescribeTheGeographicTiles) {
   EXPECT_NEAR(w["bounds"][3].get<double>(), 85.0511, 1e-4);
   const std::string wm_tiles = w["tiles"][0];
   const std::string prefix = "/api/v1/planets/" + default_id_ + "/tiles/";
-  ASSERT_NE(wm_tiles.find(prefix + "{z}/{x}/{y}.png?scheme=webmercator&encoding=terrain-rgb"),
+  ASSERT_NE(wm_tiles.find(prefix + "{z}/{x}/{y}.png?encoding=terrain-rgb&scheme=webmercator"),
             std::string::npos)
       << wm_tiles;
   const Response tile = get(prefix + "3/4/3.png?scheme=webmercator");
@@ -321,6 +323,22 @@ TEST_F(HttpPlanets, LayerJsonAndTileJsonDescribeTheGeographicTiles) {
       library.make(terrain::TileScheme::webmercator, {3, 4, 3}, terrain::TileFormat::terrain_rgb);
   ASSERT_TRUE(expected.ok()) << expected.error().message;
   EXPECT_EQ(bytes_of(tile.body()), expected->bytes);
+
+  // Colour imagery for Cesium's UrlTemplateImageryProvider (geographic TMS) and MapLibre.
+  const Response ctj = get("/api/v1/planets/default/tilejson.json?encoding=color");
+  ASSERT_EQ(ctj.result_int(), 200u) << ctj.body();
+  const json c = body_json(ctj);
+  EXPECT_EQ(c["scheme"], "tms");
+  EXPECT_FALSE(c.contains("encoding")) << c.dump();
+  EXPECT_NE(c["tiles"][0].get<std::string>().find(prefix + "{z}/{x}/{y}.png?encoding=color"),
+            std::string::npos)
+      << c.dump();
+  const Response colour = get(prefix + "3/9/5.jpg?encoding=color");
+  ASSERT_EQ(colour.result_int(), 200u) << colour.body();
+  EXPECT_EQ(header(colour, http::field::content_type), "image/jpeg");
+  const auto expected_colour = library.make({3, 9, 5}, terrain::TileFormat::color_jpeg);
+  ASSERT_TRUE(expected_colour.ok()) << expected_colour.error().message;
+  EXPECT_EQ(bytes_of(colour.body()), expected_colour->bytes);
 }
 
 TEST_F(HttpPlanets, SampleAtALevelOfDetailIsTheTilesHeight) {

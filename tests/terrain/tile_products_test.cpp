@@ -244,8 +244,8 @@ TEST(TileProductErrors, NameTheOffendingField) {
     EXPECT_EQ(p.error().pointer, c.pointer) << p.error().message;
     EXPECT_EQ(p.error().kind, ErrorKind::invalid) << c.pointer;  // the caller's to mend: a 400
   }
-  EXPECT_EQ(parse_tile_format("jpg").error().pointer, "/format");
-  EXPECT_EQ(parse_tile_format("jpg").error().kind, ErrorKind::not_found);  // no such resource
+  EXPECT_EQ(parse_tile_format("webp").error().pointer, "/format");
+  EXPECT_EQ(parse_tile_format("webp").error().kind, ErrorKind::not_found);  // no such resource
   EXPECT_EQ(parse_tile_format("png", "rainbow").error().kind, ErrorKind::invalid);
   EXPECT_EQ(parse_tile_format("png", "rainbow").error().pointer, "/encoding");
   EXPECT_EQ(parse_tile_format("glb", "terrarium").error().pointer, "/encoding");

@@ -108,7 +108,8 @@ std::vector<float> prepare_pool(const terrain::Program& program);
 /// The GLSL sources shared with the browser, in the order they are concatenated (after a
 /// backend prelude): portable_math.glsl, noise.glsl, nodes.glsl, interpreter.glsl.
 std::string_view shared_glsl();
-/// The sphere tracer (trace.glsl), concatenated after shared_glsl(); besides the prelude's
+/// The material model (material.glsl) and the sphere tracer (trace.glsl) that shades with it,
+/// concatenated after shared_glsl(); besides the prelude's
 /// program access it needs fetch_bounds(i) over terrain::LipschitzGrid::pack().
 std::string_view trace_glsl();
 /// The field- and frame-stack sizes (TERRAIN_MAX_FIELDS, TERRAIN_MAX_FRAMES) that a shader

@@ -59,6 +59,10 @@ Result<std::vector<std::uint8_t>> encode_png_gray8(int width, int height,
 /// 8-bit RGB PNG; `rgb` holds width * height * 3 bytes, pixel-interleaved.
 Result<std::vector<std::uint8_t>> encode_png_rgb8(int width, int height, const std::uint8_t* rgb);
 
+/// 8-bit RGB baseline JPEG at `quality` (1..100), 4:2:0 chroma, no metadata.
+Result<std::vector<std::uint8_t>> encode_jpeg_rgb8(int width, int height, const std::uint8_t* rgb,
+                                                   int quality);
+
 /// The encoders above, written to `path` (the format is fixed by the function, not by the file
 /// extension). The file holds exactly the bytes the matching encoder returns.
 Status write_float_tiff(const std::string& path, int width, int height, const float* samples);

@@ -30,6 +30,11 @@ inline float length(Vec2 a) {
   return std::sqrt(dot(a, a));
 }
 
+/// A point or direction in 3-D (scene frame: x, y across, z up).
+struct Vec3 {
+  float x = 0, y = 0, z = 0;
+};
+
 /// A closed interval of reals; empty when lo > hi.
 struct Interval {
   float lo = std::numeric_limits<float>::infinity();

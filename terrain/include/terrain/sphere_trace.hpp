@@ -13,10 +13,6 @@
 
 namespace terrain {
 
-struct Vec3 {
-  float x = 0, y = 0, z = 0;
-};
-
 struct Ray {
   Vec3 origin;
   Vec3 direction;  ///< unit length

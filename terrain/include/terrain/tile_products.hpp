@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "terrain/quantized_mesh.hpp"
+#include "terrain/tile_color.hpp"
 #include "terrain/tile_image.hpp"
 #include "terrain/tile_source.hpp"
 
@@ -31,6 +32,8 @@ enum class TileFormat {
   gray16,          ///< PNG, 16-bit grey with the scene's offset and scale
   normal_map,      ///< PNG, RGB normals
   hillshade,       ///< PNG, 8-bit grey shading
+  color_png,       ///< PNG, colour imagery (terrain/tile_color.hpp)
+  color_jpeg,      ///< JPEG, colour imagery
   geotiff,         ///< TIFF, float32, georeferenced
   quantized_mesh,  ///< .terrain, Cesium quantized-mesh-1.0 (gzipped)
   glb,             ///< glTF binary with KHR_draco_mesh_compression
@@ -40,16 +43,22 @@ enum class TileFormat {
 /// Names and media types, driven by one table.
 struct TileFormatInfo {
   TileFormat format;
-  std::string_view extension;  ///< "png", "tif", "terrain", "glb", "drc"
-  std::string_view encoding;   ///< the `encoding` query value for PNGs, else ""
+  std::string_view extension;  ///< "png", "jpg", "tif", "terrain", "glb", "drc"
+  std::string_view encoding;   ///< the `encoding` query value for images, else ""
   std::string_view media_type;
   bool mesh;
 };
 const TileFormatInfo& format_info(TileFormat format);
 const std::vector<TileFormatInfo>& tile_formats();
 
+/// Colour imagery (color_png, color_jpeg), whose pixels also show the source's water.
+constexpr bool is_color(TileFormat format) {
+  return format == TileFormat::color_png || format == TileFormat::color_jpeg;
+}
+
 /// A format from a file extension and an optional encoding (PNG: terrain-rgb (default),
-/// terrarium, gray16, normals, hillshade). The error names "/format" or "/encoding".
+/// terrarium, gray16, normals, hillshade, color; JPEG: color). An extension's first format in
+/// tile_formats() is its default. The error names "/format" or "/encoding".
 Result<TileFormat> parse_tile_format(std::string_view extension, std::string_view encoding = "");
 
 /// Options beyond the address; each applies to some formats only.
@@ -81,13 +90,15 @@ struct ProductConstants {
   double edge_quantum = 1.0;           ///< quantized-mesh: shared edge heights are multiples of it
   double position_quantum = 1.0;       ///< glb/drc: the position lattice
   int max_useful_zoom[3] = {0, 0, 0};  ///< per scheme: where mesh grid spacing reaches ~1 m
+  Interval relief{0.0f, 0.0f};         ///< colour tiles: see ColorTileInputs::relief
 };
 
-/// What quantized-mesh carries besides the tile: the source computes these (ProductMaker from
-/// the scene's water layer and availability; other sources, such as planets, their own).
-struct MeshExtras {
-  std::optional<std::vector<std::uint8_t>> water_mask;  ///< see QuantizedMeshOptions
-  std::optional<std::string> metadata;                  ///< JSON text
+/// What some products carry besides the tile's heights: the source computes these (ProductMaker
+/// from the scene's water layer and availability; other sources, such as planets, their own).
+struct ProductExtras {
+  std::optional<std::vector<std::uint8_t>> water_mask;  ///< quantized-mesh: QuantizedMeshOptions
+  std::optional<std::string> metadata;                  ///< quantized-mesh: JSON text
+  std::vector<std::uint8_t> water;                      ///< colour tiles: ColorTileInputs::water
 };
 
 /// Encodes a height tile in `format` with a source's constants: the part of ProductMaker::make
@@ -96,7 +107,7 @@ struct MeshExtras {
 /// options.max_error or, by default, a quarter of the tile's ground spacing.
 Result<Product> encode_product(const HeightTile& tile, TileFormat format,
                                const ProductOptions& options, const ProductConstants& constants,
-                               const Georeference& georeference, MeshExtras extras = {});
+                               const Georeference& georeference, ProductExtras extras = {});
 
 /// The geometric error CesiumTerrainProvider declares for level z of a geographic layer.json (two
 /// root tiles): WGS84's maximum radius·2π·0.25 / (65·2), halved per level
