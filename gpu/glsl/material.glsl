@@ -1,7 +1,8 @@
 // The material model of terrain/src/material.cpp (terrain/material.hpp), operation for operation:
-// the ground's colour from its height within the relief, its slope and water, and the sun's
-// light on it. The GPU tracer and the browser viewer shade with it (trace.glsl, after it), the
-// CPU renderer and colour tiles with the C++ original. GLSL ES 3.00 compatible.
+// the ground's colour from its height within the relief, its slope and the way it faces, water
+// and shores, and the sun's light on it. The GPU tracer and the browser viewer shade with it
+// (trace.glsl, after it), the CPU renderer and colour tiles with the C++ original. GLSL ES 3.00
+// compatible.
 
 // a + (b − a)·t per channel, as terrain::mix writes it (GLSL's built-in may round differently).
 vec3 colour_mix(vec3 a, vec3 b, float t) {
@@ -10,18 +11,48 @@ vec3 colour_mix(vec3 a, vec3 b, float t) {
   return r;
 }
 
-// terrain::material_albedo: height 0..1 within the relief, slope the sine of its angle.
-vec3 material_albedo(float height, float slope, bool water) {
+// terrain::ramp: clamp((x − lo) / (hi − lo), 0, 1).
+float material_ramp(float x, float lo, float hi) {
+  TERRAIN_PRECISE float r = (x - lo) / (hi - lo);
+  return clamp(r, 0.0, 1.0);
+}
+
+// terrain::northness of a gradient (∂h/∂x, ∂h/∂y).
+float material_northness(float east, float north) {
+  TERRAIN_PRECISE float squared = east * east + north * north;
+  float steepness = sqrt(squared);
+  if (!(steepness > 0.0)) return 0.0;
+  TERRAIN_PRECISE float faded = min(steepness * 2.0, 1.0);
+  TERRAIN_PRECISE float n = -north / steepness * faded;
+  return n;
+}
+
+// terrain::shore_band_for.
+float material_shore_band(float z_lo, float z_hi) {
+  TERRAIN_PRECISE float width = z_hi - z_lo;
+  TERRAIN_PRECISE float band = 0.02 * width;
+  return max(band, 1.0);
+}
+
+// terrain::material_albedo: height 0..1 within the relief, slope the sine of its angle,
+// northness 1 facing north, shore 1 at a water's edge.
+vec3 material_albedo(float height, float slope, float northness, float shore, bool water) {
   if (water) return vec3(0.12, 0.30, 0.45);
-  TERRAIN_PRECISE float by_height = height * 1.4;
-  vec3 ground = colour_mix(vec3(0.32, 0.45, 0.20), vec3(0.55, 0.50, 0.38),
-                           clamp(by_height, 0.0, 1.0));
-  TERRAIN_PRECISE float by_slope = (slope - 0.45) * 4.0;
-  ground = colour_mix(ground, vec3(0.45, 0.42, 0.40), clamp(by_slope, 0.0, 1.0));
-  if (height > 0.8 && slope < 0.6) {
-    TERRAIN_PRECISE float snow = (height - 0.8) * 5.0;
-    ground = colour_mix(ground, vec3(0.95, 0.96, 0.98), min(snow, 1.0));
-  }
+  vec3 ground = colour_mix(vec3(0.36, 0.49, 0.22), vec3(0.17, 0.31, 0.13),
+                           material_ramp(height, 0.12, 0.30));
+  ground = colour_mix(ground, vec3(0.48, 0.52, 0.31), material_ramp(height, 0.48, 0.60));
+  ground = colour_mix(ground, vec3(0.55, 0.50, 0.40), material_ramp(height, 0.68, 0.85));
+  TERRAIN_PRECISE float scree =
+      material_ramp(slope, 0.45, 0.60) * material_ramp(height, 0.45, 0.65);
+  ground = colour_mix(ground, vec3(0.60, 0.58, 0.54), scree);
+  ground = colour_mix(ground, vec3(0.42, 0.40, 0.38), material_ramp(slope, 0.62, 0.82));
+  TERRAIN_PRECISE float line = 0.80 - 0.10 * northness;
+  TERRAIN_PRECISE float top = line + 0.08;
+  TERRAIN_PRECISE float snow =
+      material_ramp(height, line, top) * (1.0 - material_ramp(slope, 0.50, 0.70));
+  ground = colour_mix(ground, vec3(0.95, 0.96, 0.98), snow);
+  TERRAIN_PRECISE float sand = shore * (1.0 - material_ramp(slope, 0.25, 0.45));
+  ground = colour_mix(ground, vec3(0.80, 0.74, 0.56), sand);
   return ground;
 }
 

@@ -215,7 +215,11 @@ vec3 trace_shade(TraceSetup s, Field field, float z) {
   TERRAIN_PRECISE float slope = sqrt(1.0 - min(1.0, nz2));  // sine of the slope angle
   TERRAIN_PRECISE float width = s.z_hi - s.z_lo;
   TERRAIN_PRECISE float height = width > 0.0 ? (z - s.z_lo) / width : 0.5;
-  vec3 ground = material_albedo(height, slope, z < s.water_level);
+  float northness = material_northness(field.fx, field.fy);
+  bool water = z < s.water_level;
+  TERRAIN_PRECISE float above = z - s.water_level;
+  float shore = water ? 0.0 : 1.0 - material_ramp(above, 0.0, material_shore_band(s.z_lo, s.z_hi));
+  vec3 ground = material_albedo(height, slope, northness, shore, water);
   float light = material_sun_light(n, s.sun);
   TERRAIN_PRECISE vec3 colour = vec3(ground.x * light, ground.y * light, ground.z * light);
   return colour;

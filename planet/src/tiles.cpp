@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "terrain/draco_mesh.hpp"
@@ -56,6 +57,7 @@ terrain::ProductConstants PlanetTiles::constants_at(int z) const {
   c.gray16 = terrain::gray16_encoding_for(range);
   // Colours measure the relief from sea level: the lowlands of every continent are green.
   c.relief = {0.0f, std::max(range.hi, 1.0f)};
+  c.shore_band = 15.0f;  // metres of beach above the sea
   const double span = static_cast<double>(range.hi) - range.lo;
   c.edge_quantum = terrain::edge_quantum_for(range.lo, range.hi);
   c.position_quantum = terrain::position_quantum_for(
@@ -253,11 +255,17 @@ Result<terrain::Product> PlanetTiles::make(TileScheme scheme, const TileAddress&
                                            const terrain::ProductOptions& options) {
   if (terrain::Status s = validate(scheme, address, format, options); !s) return s.error();
   terrain::ProductExtras extras;
-  // Colour tiles show the water of their own samples: sea, lakes and rivers.
+  // Colour tiles show the water of their own samples, sea and rivers, and beaches above sea
+  // level: a wet sample's surface is +∞ (drawn as water; its level is not needed), a dry one's
+  // the sea's.
   const bool color = terrain::is_color(format);
+  std::vector<std::uint8_t> wet;
   Result<HeightTile> tile =
-      evaluate(request_for(scheme, address, format, options), color ? &extras.water : nullptr);
+      evaluate(request_for(scheme, address, format, options), color ? &wet : nullptr);
   if (!tile) return tile.error();
+  for (std::uint8_t w : wet) {
+    extras.water_surface.push_back(w != 0 ? std::numeric_limits<float>::infinity() : 0.0f);
+  }
   if (format == TileFormat::quantized_mesh) {
     if (options.watermask) {
       Result<std::vector<std::uint8_t>> mask = water_mask(address);

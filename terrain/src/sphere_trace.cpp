@@ -264,7 +264,9 @@ Rgb shade(const FieldSample& s, float z, const Interval& range, float water_leve
   MaterialInput input;
   input.slope = std::sqrt(1.0f - std::min(1.0f, n.z * n.z));  // sine of the slope angle
   input.height = range.width() > 0 ? (z - range.lo) / range.width() : 0.5f;
+  input.northness = northness(s.elevation_gradient.x, s.elevation_gradient.y);
   input.water = z < water_level;
+  input.shore = input.water ? 0.0f : 1.0f - ramp(z - water_level, 0.0f, shore_band_for(range));
   const Rgb ground = material_albedo(input);
   const float light = sun_light(n, sun_direction());
   return {ground.r * light, ground.g * light, ground.b * light};

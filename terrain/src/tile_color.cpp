@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "terrain/image_io.hpp"
@@ -18,26 +19,20 @@ Status check_inputs(const HeightTile& tile, const ColorTileInputs& inputs) {
         inputs.relief.lo <= inputs.relief.hi)) {
     return Error{"the relief must be a finite interval", "/relief"};
   }
-  if (!inputs.water.empty() && inputs.water.size() != sample_count(tile)) {
-    return Error{"water has " + std::to_string(inputs.water.size()) + " flags for " +
-                     std::to_string(sample_count(tile)) + " samples",
-                 "/water"};
+  if (!inputs.water_surface.empty() && inputs.water_surface.size() != sample_count(tile)) {
+    return Error{"water_surface has " + std::to_string(inputs.water_surface.size()) +
+                     " values for " + std::to_string(sample_count(tile)) + " samples",
+                 "/water_surface"};
   }
-  const HillshadeOptions& light = inputs.light;
-  if (!std::isfinite(light.azimuth_deg)) {
-    return Error{"the light azimuth must be finite", "/hillshade/azimuth_deg"};
+  if (!(inputs.shore_band >= 0.0f && std::isfinite(inputs.shore_band))) {
+    return Error{"the shore band must be finite and at least 0", "/shore_band"};
   }
-  if (!(light.altitude_deg >= 0.0 && light.altitude_deg <= 90.0)) {
-    return Error{"the light altitude must be in [0, 90] degrees, not " + text(light.altitude_deg),
-                 "/hillshade/altitude_deg"};
-  }
-  if (!std::isfinite(light.z_factor) || !(light.z_factor > 0.0)) {
-    return Error{"z_factor must be finite and positive, not " + text(light.z_factor),
-                 "/hillshade/z_factor"};
-  }
+  if (Status ok = check_light(inputs.light); !ok) return ok.error();
   if (Status ok = check_heights(tile); !ok) return ok.error();
   return check_slopes(tile);
 }
+
+constexpr float kNoWater = std::numeric_limits<float>::quiet_NaN();
 
 Vec3 normalise(Vec3 v) {
   const float length = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
@@ -50,23 +45,26 @@ Result<std::vector<std::uint8_t>> color_pixels(const HeightTile& tile,
                                                const ColorTileInputs& inputs) {
   return guarded("cannot colour the tile", [&]() -> Result<Bytes> {
     if (Status ok = check_inputs(tile, inputs); !ok) return ok.error();
-    // Towards the sun, in (east, north, up): azimuth clockwise from north, raised by the altitude.
-    const auto [cos_azimuth, sin_azimuth] = cos_sin_degrees(inputs.light.azimuth_deg);
-    const auto [cos_altitude, sin_altitude] = cos_sin_degrees(inputs.light.altitude_deg);
-    const Vec3 sun{static_cast<float>(sin_azimuth * cos_altitude),
-                   static_cast<float>(cos_azimuth * cos_altitude),
-                   static_cast<float>(sin_altitude)};
+    const auto [east, north, up] = towards_light(inputs.light);
+    const Vec3 sun{static_cast<float>(east), static_cast<float>(north), static_cast<float>(up)};
     const float z_factor = static_cast<float>(inputs.light.z_factor);
     const float lo = inputs.relief.lo;
     const float width = inputs.relief.width();
     Bytes rgb(sample_count(tile) * 3);
     for (std::size_t i = 0; i < tile.elevation.size(); ++i) {
+      const float ground = tile.elevation[i];
+      // NaN (no water near) compares false both ways: neither under water nor on a shore.
+      const float surface = inputs.water_surface.empty() ? kNoWater : inputs.water_surface[i];
       MaterialInput input;
-      input.water = !inputs.water.empty() && inputs.water[i] != 0;
-      input.height = width > 0.0f ? (tile.elevation[i] - lo) / width : 0.5f;
+      input.water = surface > ground;
+      input.shore = ground >= surface && inputs.shore_band > 0.0f
+                        ? 1.0f - ramp(ground - surface, 0.0f, inputs.shore_band)
+                        : 0.0f;
+      input.height = width > 0.0f ? (ground - lo) / width : 0.5f;
+      input.northness = northness(tile.slope_east[i], tile.slope_north[i]);
       // The slope of the ground itself; the light sees it exaggerated by z_factor.
-      const Vec3 ground = normalise({-tile.slope_east[i], -tile.slope_north[i], 1.0f});
-      input.slope = std::sqrt(1.0f - std::min(1.0f, ground.z * ground.z));
+      const Vec3 normal = normalise({-tile.slope_east[i], -tile.slope_north[i], 1.0f});
+      input.slope = std::sqrt(1.0f - std::min(1.0f, normal.z * normal.z));
       const Vec3 lit =
           input.water
               ? Vec3{0.0f, 0.0f, 1.0f}

@@ -1,7 +1,9 @@
-// The checks the height-tile encoders (tile_image.cpp: PNGs, geotiff.cpp: GeoTIFF) apply to a
-// HeightTile before encoding, and the helpers they share. Internal to the terrain library.
+// The checks the tile encoders (tile_image.cpp: PNGs, geotiff.cpp: GeoTIFF, tile_color.cpp:
+// colour imagery) apply to a HeightTile before encoding, and the helpers they share. Internal to
+// the terrain library.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -14,6 +16,7 @@
 #include "terrain/result.hpp"
 #include "terrain/scene.hpp"
 #include "terrain/tile.hpp"
+#include "terrain/tile_image.hpp"
 
 namespace terrain::tile_encoding {
 
@@ -145,6 +148,30 @@ inline std::pair<double, double> cos_sin_degrees(double degrees) {
   if (reduced == 270.0) return {0.0, -1.0};
   const double radians = reduced * (std::numbers::pi / 180.0);
   return {std::cos(radians), std::sin(radians)};
+}
+
+// A hillshade's light: its pointers under "/hillshade".
+inline Status check_light(const HillshadeOptions& light) {
+  if (!std::isfinite(light.azimuth_deg)) {
+    return Error{"the light azimuth must be finite", "/hillshade/azimuth_deg"};
+  }
+  if (!(light.altitude_deg >= 0.0 && light.altitude_deg <= 90.0)) {
+    return Error{"the light altitude must be in [0, 90] degrees, not " + text(light.altitude_deg),
+                 "/hillshade/altitude_deg"};
+  }
+  if (!std::isfinite(light.z_factor) || !(light.z_factor > 0.0)) {
+    return Error{"z_factor must be finite and positive, not " + text(light.z_factor),
+                 "/hillshade/z_factor"};
+  }
+  return Ok{};
+}
+
+// The unit vector towards a hillshade's light in (east, north, up): azimuth clockwise from
+// north in the east-north plane, raised by the altitude.
+inline std::array<double, 3> towards_light(const HillshadeOptions& light) {
+  const auto [cos_azimuth, sin_azimuth] = cos_sin_degrees(light.azimuth_deg);
+  const auto [cos_altitude, sin_altitude] = cos_sin_degrees(light.altitude_deg);
+  return {sin_azimuth * cos_altitude, cos_azimuth * cos_altitude, sin_altitude};
 }
 
 // ---------------------------------------------------------------------------------------------

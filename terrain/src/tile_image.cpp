@@ -128,26 +128,9 @@ Result<std::vector<std::uint8_t>> encode_normal_map(const HeightTile& tile) {
 Result<std::vector<std::uint8_t>> encode_hillshade(const HeightTile& tile,
                                                    const HillshadeOptions& options) {
   return guarded("cannot encode hillshade", [&]() -> Result<Bytes> {
-    if (!std::isfinite(options.azimuth_deg)) {
-      return Error{"the light azimuth must be finite", "/hillshade/azimuth_deg"};
-    }
-    if (!(options.altitude_deg >= 0.0 && options.altitude_deg <= 90.0)) {
-      return Error{
-          "the light altitude must be in [0, 90] degrees, not " + text(options.altitude_deg),
-          "/hillshade/altitude_deg"};
-    }
-    if (!std::isfinite(options.z_factor) || !(options.z_factor > 0.0)) {
-      return Error{"z_factor must be finite and positive, not " + text(options.z_factor),
-                   "/hillshade/z_factor"};
-    }
+    if (Status ok = check_light(options); !ok) return ok.error();
     if (Status ok = check_slopes(tile); !ok) return ok.error();
-    // Towards the light: azimuth clockwise from north in the east-north plane, raised by the
-    // altitude.
-    const auto [cos_azimuth, sin_azimuth] = cos_sin_degrees(options.azimuth_deg);
-    const auto [cos_altitude, sin_altitude] = cos_sin_degrees(options.altitude_deg);
-    const double lx = sin_azimuth * cos_altitude;
-    const double ly = cos_azimuth * cos_altitude;
-    const double lz = sin_altitude;
+    const auto [lx, ly, lz] = towards_light(options);
     Bytes shade(sample_count(tile));
     for (std::size_t i = 0; i < shade.size(); ++i) {
       const double nx = -options.z_factor * static_cast<double>(tile.slope_east[i]);

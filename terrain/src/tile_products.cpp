@@ -7,6 +7,7 @@
 
 #include "terrain/draco_mesh.hpp"
 #include "terrain/gzip.hpp"
+#include "terrain/material.hpp"
 
 namespace terrain {
 namespace {
@@ -76,6 +77,7 @@ ProductMaker::ProductMaker(TileSource source) : generator_(std::move(source)) {
   const TileSource& s = generator_.source();
   constants_.gray16 = gray16_encoding_for(s.elevation_range);
   constants_.relief = s.elevation_range;
+  constants_.shore_band = shore_band_for(s.elevation_range);
   const double range = static_cast<double>(s.elevation_range.hi) - s.elevation_range.lo;
   constants_.edge_quantum = edge_quantum_for(s.elevation_range.lo, s.elevation_range.hi);
   // Positions span the scene's square; skirts reach below it by at most a few tens of metres
@@ -207,7 +209,8 @@ Result<Product> encode_product(const HeightTile& tile, TileFormat format,
     case TileFormat::color_jpeg: {
       ColorTileInputs inputs;
       inputs.relief = constants.relief;
-      inputs.water = extras.water;
+      inputs.water_surface = extras.water_surface;
+      inputs.shore_band = constants.shore_band;
       bytes = encode_color(tile, inputs,
                            format == TileFormat::color_png ? ColorCodec::png : ColorCodec::jpeg);
       break;
@@ -253,7 +256,7 @@ Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address
   const bool color = is_color(format);
   Result<HeightTile> generated =
       color ? generator_.height_tile_with_water(request_for(scheme, address, format, options),
-                                                extras.water)
+                                                extras.water_surface)
             : generator_.height_tile(request_for(scheme, address, format, options));
   if (!generated) return generated.error();
   if (format == TileFormat::quantized_mesh) {

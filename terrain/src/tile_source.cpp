@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace terrain {
@@ -404,19 +405,18 @@ Result<HeightTile> TileGenerator::height_tile(const TileRequest& request,
 }
 
 Result<HeightTile> TileGenerator::height_tile_with_water(const TileRequest& request,
-                                                         std::vector<std::uint8_t>& water) {
-  water.clear();
+                                                         std::vector<float>& water_surface) {
+  water_surface.clear();
   std::vector<std::uint8_t> mapped;  // the samples' positions are placed once, for both trees
   Result<HeightTile> terrain = height_tile(request, mapped);
   if (!terrain || !water_) return terrain;
   const HeightTile& tile = *terrain;
-  std::vector<float> surface(tile.elevation.size(), -1e30f);
+  water_surface.assign(tile.elevation.size(), -1e30f);
   std::vector<float> weight(tile.elevation.size(), 0.0f);
-  evaluate(*water_, tile, mapped, static_cast<float>(tile.ground_spacing), surface, nullptr,
+  evaluate(*water_, tile, mapped, static_cast<float>(tile.ground_spacing), water_surface, nullptr,
            nullptr, &weight);
-  water.resize(tile.elevation.size());
-  for (std::size_t i = 0; i < water.size(); ++i) {
-    water[i] = weight[i] >= 0.5f && surface[i] > tile.elevation[i] ? 1 : 0;
+  for (std::size_t i = 0; i < water_surface.size(); ++i) {
+    if (!(weight[i] >= 0.5f)) water_surface[i] = std::numeric_limits<float>::quiet_NaN();
   }
   return terrain;
 }
@@ -424,15 +424,19 @@ Result<HeightTile> TileGenerator::height_tile_with_water(const TileRequest& requ
 Result<std::vector<std::uint8_t>> TileGenerator::water_mask(TileScheme scheme,
                                                             const TileAddress& address) {
   if (!water_) return std::vector<std::uint8_t>{0};
-  std::vector<std::uint8_t> mask;
+  std::vector<float> surface;
   Result<HeightTile> terrain =
-      height_tile_with_water({scheme, address, SampleLayout::cell_centres, 256, 0}, mask);
+      height_tile_with_water({scheme, address, SampleLayout::cell_centres, 256, 0}, surface);
   if (!terrain) return terrain.error();
-  const bool any_water = std::find(mask.begin(), mask.end(), 1) != mask.end();
-  const bool any_land = std::find(mask.begin(), mask.end(), 0) != mask.end();
+  std::vector<std::uint8_t> mask(surface.size());
+  bool any_land = false, any_water = false;
+  for (std::size_t i = 0; i < mask.size(); ++i) {
+    const bool wet = surface[i] > terrain->elevation[i];  // false for NaN: no water here
+    mask[i] = wet ? 255 : 0;
+    (wet ? any_water : any_land) = true;
+  }
   if (!any_water) return std::vector<std::uint8_t>{0};
   if (!any_land) return std::vector<std::uint8_t>{255};
-  for (std::uint8_t& m : mask) m = m != 0 ? 255 : 0;
   return mask;
 }
 

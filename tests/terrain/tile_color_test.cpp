@@ -17,6 +17,7 @@
 #include "example_tile_sources.hpp"
 #include "synthetic_tiles.hpp"
 #include "terrain/image_io.hpp"
+#include "terrain/material.hpp"
 #include "terrain/tile_products.hpp"
 #include "terrain/tile_source.hpp"
 
@@ -24,6 +25,8 @@ namespace terrain {
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;
+
+constexpr float kDry = std::numeric_limits<float>::quiet_NaN();  // no water near
 
 struct Pixel {
   int r, g, b;
@@ -47,10 +50,10 @@ TEST(ColorTile, GrassLowSnowOnFlatSummitsRockOnCliffsAndWaterWhereFlagged) {
   // Low and flat; summit and flat; mid-height at 63° (slope 2); low and flagged as water.
   const HeightTile tile = four_samples({0.0f, 1000.0f, 500.0f, 0.0f}, {0.0f, 0.0f, 2.0f, 0.0f},
                                        {0.0f, 0.0f, 0.0f, 0.0f});
-  const Bytes water = {0, 0, 0, 1};
+  const std::vector<float> water = {kDry, kDry, kDry, 10.0f};
   ColorTileInputs inputs;
   inputs.relief = {0.0f, 1000.0f};
-  inputs.water = water;
+  inputs.water_surface = water;
   Result<Bytes> rgb = color_pixels(tile, inputs);
   ASSERT_TRUE(rgb.ok()) << rgb.error().message;
   const Pixel grass = pixel_at(*rgb, 0), snow = pixel_at(*rgb, 1), rock = pixel_at(*rgb, 2),
@@ -62,6 +65,28 @@ TEST(ColorTile, GrassLowSnowOnFlatSummitsRockOnCliffsAndWaterWhereFlagged) {
   EXPECT_LE(std::abs(rock.g - rock.b), 8);
   EXPECT_GT(lake.b, lake.g);
   EXPECT_GT(lake.g, lake.r);
+}
+
+TEST(ColorTile, SandOnShoresJustAboveTheWaterAndSnowLowerOnNorthFaces) {
+  // Flat ground 1 m and 30 m above a lake's surface at 100 m (band 10 m); then the same
+  // 27° slope at 77 % of the relief facing north and facing south.
+  const float t = 0.5f;
+  const HeightTile tile =
+      four_samples({101.0f, 130.0f, 770.0f, 770.0f}, {0.0f, 0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -t, t});
+  const std::vector<float> lake = {100.0f, 100.0f, kDry, kDry};
+  ColorTileInputs inputs;
+  inputs.relief = {0.0f, 1000.0f};
+  inputs.water_surface = lake;
+  inputs.shore_band = 10.0f;
+  Result<Bytes> rgb = color_pixels(tile, inputs);
+  ASSERT_TRUE(rgb.ok()) << rgb.error().message;
+  const Pixel beach = pixel_at(*rgb, 0), field = pixel_at(*rgb, 1), north = pixel_at(*rgb, 2),
+              south = pixel_at(*rgb, 3);
+  EXPECT_GT(beach.r, beach.g) << "sand is yellow";
+  EXPECT_GT(beach.g, beach.b);
+  EXPECT_GT(field.g, field.r) << "beyond the band: vegetation";
+  // The north face is snowy (whiter: its blue channel well up), the south face bare.
+  EXPECT_GT(north.b - south.b, 40) << "north " << north.b << ", south " << south.b;
 }
 
 TEST(ColorTile, SlopesFacingTheNorthWestSunAreBrighter) {
@@ -87,26 +112,27 @@ TEST(ColorTile, ChildTilesStitchIntoTheirParentWithoutSeams) {
   inputs.relief = source.elevation_range;
   const TileRange r = tiles_covering_area(source, TileScheme::local, 1);
   const TileAddress parent{1, r.min_x, r.min_y};
-  Bytes parent_water;
+  std::vector<float> parent_water;
   Result<HeightTile> big = generator.height_tile_with_water(
       {TileScheme::local, parent, SampleLayout::cell_centres, 512, 0}, parent_water);
   ASSERT_TRUE(big.ok()) << big.error().message;
   ASSERT_FALSE(parent_water.empty());
-  inputs.water = parent_water;
+  inputs.water_surface = parent_water;
+  inputs.shore_band = shore_band_for(source.elevation_range);
   Result<Bytes> whole = color_pixels(*big, inputs);
   ASSERT_TRUE(whole.ok()) << whole.error().message;
   int differing = 0, wet = 0;
   for (int q = 0; q < 4; ++q) {
     const int dx = q % 2, dy = q / 2;
     const TileAddress child{2, 2 * parent.x + dx, 2 * parent.y + dy};
-    Bytes water;
+    std::vector<float> water;
     Result<HeightTile> small = generator.height_tile_with_water(
         {TileScheme::local, child, SampleLayout::cell_centres, 256, 0}, water);
     ASSERT_TRUE(small.ok()) << small.error().message;
-    inputs.water = water;
+    inputs.water_surface = water;
     Result<Bytes> part = color_pixels(*small, inputs);
     ASSERT_TRUE(part.ok()) << part.error().message;
-    wet += static_cast<int>(std::count(water.begin(), water.end(), 1));
+    for (std::size_t i = 0; i < water.size(); ++i) wet += water[i] > small->elevation[i] ? 1 : 0;
     for (int row = 0; row < 256; ++row) {
       for (int column = 0; column < 256; ++column) {
         // Local tiles count y to the south, as their rows do.
@@ -185,10 +211,13 @@ TEST(ColorTile, RefusesMalformedInputsNamingTheField) {
   const HeightTile tile = test_tiles::synthetic_tile(0, 0, 0, 4);
   ColorTileInputs inputs;
   inputs.relief = {0.0f, 1000.0f};
-  const Bytes short_water(3, 1);
-  inputs.water = short_water;
-  EXPECT_EQ(color_pixels(tile, inputs).error().pointer, "/water");
-  inputs.water = {};
+  const std::vector<float> short_water(3, 1.0f);
+  inputs.water_surface = short_water;
+  EXPECT_EQ(color_pixels(tile, inputs).error().pointer, "/water_surface");
+  inputs.water_surface = {};
+  inputs.shore_band = -1.0f;
+  EXPECT_EQ(color_pixels(tile, inputs).error().pointer, "/shore_band");
+  inputs.shore_band = 0.0f;
   inputs.relief = {0.0f, std::numeric_limits<float>::infinity()};
   EXPECT_EQ(color_pixels(tile, inputs).error().pointer, "/relief");
   inputs.relief = {0.0f, 1000.0f};

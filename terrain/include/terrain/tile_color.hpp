@@ -21,9 +21,12 @@ struct ColorTileInputs {
   /// The heights the material maps to its 0..1 relief (scenes: their elevation range; planets:
   /// sea level to their highest peak), so that a scene's snow line is the same on every tile.
   Interval relief;
-  /// One byte per sample in the tile's layout, non-zero under water; empty when dry everywhere.
-  /// Water is drawn flat, lit as a level surface.
-  std::span<const std::uint8_t> water;
+  /// One value per sample in the tile's layout: the surface of the water that covers the sample
+  /// (under water where it lies above the ground) or whose shore it may be on; NaN where no
+  /// water is near. Empty: no water anywhere. Water is drawn flat, lit as a level surface.
+  std::span<const float> water_surface;
+  /// Shores: sand from the water's edge up to this many metres above its surface (0: none).
+  float shore_band = 0.0f;
   /// The sun: from the north-west, 45° high, as in cartographic hillshades.
   HillshadeOptions light;
 };
@@ -33,7 +36,8 @@ enum class ColorCodec { png, jpeg };
 /// JPEG quality of colour tiles: about 20 kB for a 256² tile of mountains, with no visible blocks.
 inline constexpr int kColorJpegQuality = 90;
 
-/// The tile's colours, encoded. Errors name the field ("/elevation/17", "/water", "/relief",
+/// The tile's colours, encoded. Errors name the field ("/elevation/17", "/water_surface",
+/// "/shore_band", "/relief",
 /// "/hillshade/altitude_deg").
 Result<std::vector<std::uint8_t>> encode_color(const HeightTile& tile,
                                                const ColorTileInputs& inputs, ColorCodec codec);

@@ -23,8 +23,9 @@ namespace terrain {
 /// tracer, planet refinement, the erosion and drainage solvers. Shared caches, baked grids and
 /// ETags carry it, so that during a rolling upgrade no two servers answer one immutable URL with
 /// different bytes. The product goldens (tests/terrain/goldens, tests/planet/goldens) refuse new
-/// hashes under an old generation. 2: erosion routes by Rho8 and sub-steps its diffusion.
-inline constexpr int kProductGeneration = 2;
+/// hashes under an old generation. 2: erosion routes by Rho8 and sub-steps its diffusion. 3: the
+/// material model's forest, scree, aspect-dependent snow line and shores (pictures, colour tiles).
+inline constexpr int kProductGeneration = 3;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
@@ -91,6 +92,7 @@ struct ProductConstants {
   double position_quantum = 1.0;       ///< glb/drc: the position lattice
   int max_useful_zoom[3] = {0, 0, 0};  ///< per scheme: where mesh grid spacing reaches ~1 m
   Interval relief{0.0f, 0.0f};         ///< colour tiles: see ColorTileInputs::relief
+  float shore_band = 0.0f;             ///< colour tiles: see ColorTileInputs::shore_band
 };
 
 /// What some products carry besides the tile's heights: the source computes these (ProductMaker
@@ -98,7 +100,7 @@ struct ProductConstants {
 struct ProductExtras {
   std::optional<std::vector<std::uint8_t>> water_mask;  ///< quantized-mesh: QuantizedMeshOptions
   std::optional<std::string> metadata;                  ///< quantized-mesh: JSON text
-  std::vector<std::uint8_t> water;                      ///< colour tiles: ColorTileInputs::water
+  std::vector<float> water_surface;  ///< colour tiles: ColorTileInputs::water_surface
 };
 
 /// Encodes a height tile in `format` with a source's constants: the part of ProductMaker::make

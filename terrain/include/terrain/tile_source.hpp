@@ -151,10 +151,11 @@ class TileGenerator {
   /// the whole tile is land (0) or water (255). A scene without a water layer gives {0}.
   Result<std::vector<std::uint8_t>> water_mask(TileScheme scheme, const TileAddress& address);
 
-  /// height_tile, also giving `water`: one byte per sample, 1 where the water layer covers it
-  /// (as in water_mask), else 0; empty when the scene has no water layer.
+  /// height_tile, also giving `water_surface`: per sample, the water layer's surface where its
+  /// weight is at least 0.5 (the sample is under water where that lies above the ground, as in
+  /// water_mask), else NaN; empty when the scene has no water layer.
   Result<HeightTile> height_tile_with_water(const TileRequest& request,
-                                            std::vector<std::uint8_t>& water);
+                                            std::vector<float>& water_surface);
 
  private:
   // height_tile, also giving which samples the frame maps (0 where it does not reach).
