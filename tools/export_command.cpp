@@ -14,9 +14,10 @@ namespace tools {
 const char* const kExportOptionsUsage =
     R"(       -o OUT.{mbtiles,pmtiles} --zoom Z0-Z1 [--bbox W,S,E,N] [--encoding E] [--format F]
        [--threads N] [--max-tiles N] [--commit-every N]
-                                         E = terrain-rgb (default) or terrarium; F = png
-                                         (default) or terrain (quantized-mesh, gzipped, with
-                                         normals, water mask and metadata: geographic scheme);
+                                         E = terrain-rgb (default), terrarium or color
+                                         (imagery); F = png (default), jpg (color) or terrain
+                                         (quantized-mesh, gzipped, with normals, water mask and
+                                         metadata: geographic scheme);
                                          bbox in degrees (default: the whole source); an
                                          interrupted export resumes when rerun; N threads
                                          (default: every core); --max-tiles (default 1000000);
@@ -94,22 +95,30 @@ std::optional<ExportRequest> parse_export(const CliArgs& args, const ExportRules
     return fail("-o", format.error().message);
   }
   const std::string format = args.get("--format", "png");
-  const std::string encoding = args.get("--encoding", "terrain-rgb");
   if (format == "terrain") {
-    if (args.has("--encoding")) return fail("--encoding", "only PNG packs have an encoding");
+    if (args.has("--encoding")) return fail("--encoding", "only image packs have an encoding");
     request.format = terrain::TileFormat::quantized_mesh;
     request.scheme = terrain::TileScheme::geographic;
   } else if (format == "png") {
+    const std::string encoding = args.get("--encoding", "terrain-rgb");
     if (encoding == "terrain-rgb") {
       request.format = terrain::TileFormat::terrain_rgb;
     } else if (encoding == "terrarium") {
       request.format = terrain::TileFormat::terrarium;
+    } else if (encoding == "color") {
+      request.format = terrain::TileFormat::color_png;
     } else {
-      return fail("--encoding", "must be terrain-rgb or terrarium, not '" + encoding + "'");
+      return fail("--encoding", "must be terrain-rgb, terrarium or color, not '" + encoding + "'");
     }
     request.scheme = rules.png_scheme;
+  } else if (format == "jpg") {
+    if (args.get("--encoding", "color") != "color") {
+      return fail("--encoding", "JPEG packs hold colour imagery: color");
+    }
+    request.format = terrain::TileFormat::color_jpeg;
+    request.scheme = rules.png_scheme;
   } else {
-    return fail("--format", "must be png or terrain, not '" + format + "'");
+    return fail("--format", "must be png, jpg or terrain, not '" + format + "'");
   }
 
   terrain::PackArea area;

@@ -53,7 +53,10 @@ const vec3 ZENITH = vec3(0.33, 0.55, 0.85);  // scene mode's sky overhead
 const vec3 SPACE = vec3(0.01, 0.012, 0.03);
 `;
 
-export const TERRAIN_FS = `#version 300 es
+// The terrain's fragment shader around the server's material model (material.glsl, the GLSL twin
+// of terrain/material.cpp): land takes the colours of scene pictures and colour tiles.
+export function terrainFragmentShader(material) {
+  return `#version 300 es
 precision highp float;
 in vec3 v_rel;
 in vec3 v_normal;
@@ -65,12 +68,14 @@ uniform sampler2D u_mask;     // the tile's water mask (R8), used when u_water <
 uniform float u_water;        // the one-byte mask's value 0..1, or -1
 uniform vec3 u_sun;
 uniform float u_sea_level;
-uniform float u_snow_line;    // metres: the material scale (scene mode's height 0..1)
+uniform float u_snow_line;    // metres above the sea: the top of the material's relief (height 1)
 uniform float u_log_depth;    // 2 / log2(far + 1)
 uniform float u_fog_scale;
 ${ATMOSPHERE_GLSL}
 layout(location = 0) out vec4 out_colour;
 layout(location = 1) out vec4 out_distance;
+#define TERRAIN_PRECISE
+${material}
 
 void main() {
   vec3 up = normalize(v_up);
@@ -79,15 +84,18 @@ void main() {
   vec3 view = v_rel / distance;
   float water = u_water >= 0.0 ? u_water : texture(u_mask, vec2(v_uv.x, 1.0 - v_uv.y)).r;
   if (v_height < u_sea_level - 1.0) water = 1.0;  // below the sea's surface, whatever the mask
-  // Land: scene mode's materials (grass to brown by height, rock by slope, snow high and flat)
-  // with a sand beach near sea level.
-  float slope = sqrt(1.0 - min(1.0, dot(n, up) * dot(n, up)));
+  // Land: the material model, as colour tiles of planets take it: height from sea level to the
+  // relief's top, the slope, which way it faces (north along the axis, ECEF z), beaches in the
+  // 15 m above the sea.
+  float along = max(dot(n, up), 1e-3);  // overhanging normals count as vertical
+  float slope = sqrt(1.0 - min(1.0, along * along));
   float height = (v_height - u_sea_level) / u_snow_line;
-  vec3 ground = mix(vec3(0.32, 0.45, 0.20), vec3(0.55, 0.50, 0.38), clamp(height * 1.4, 0.0, 1.0));
-  ground = mix(ground, vec3(0.45, 0.42, 0.40), clamp((slope - 0.45) * 4.0, 0.0, 1.0));
-  if (height > 0.8 && slope < 0.6) ground = mix(ground, vec3(0.95, 0.96, 0.98), clamp((height - 0.8) * 5.0, 0.0, 1.0));
-  ground = mix(vec3(0.76, 0.70, 0.50), ground, smoothstep(2.0, 30.0, v_height - u_sea_level));
-  vec3 land = ground * (0.30 + 0.75 * max(0.0, dot(n, u_sun)));
+  vec3 north = normalize(vec3(0.0, 0.0, 1.0) - up * up.z + vec3(1e-9, 0.0, 0.0));
+  vec3 east = cross(north, up);
+  float facing = material_northness(-dot(n, east) / along, -dot(n, north) / along);
+  float shore = 1.0 - material_ramp(v_height - u_sea_level, 0.0, 15.0);
+  vec3 ground = material_albedo(height, slope, facing, shore, false);
+  vec3 land = ground * material_sun_light(n, u_sun);
   // Water: deeper is darker; lit from the ellipsoid's up with a glint of the sun.
   float depth = clamp((u_sea_level - v_height) / 3000.0, 0.0, 1.0);
   vec3 sea = mix(vec3(0.12, 0.30, 0.45), vec3(0.05, 0.16, 0.32), depth);
@@ -100,6 +108,7 @@ void main() {
   out_distance = vec4(distance, 0.0, 0.0, 1.0);
   gl_FragDepth = log2(v_w) * u_log_depth * 0.5;
 }`;
+}
 
 export const SKY_VS = `#version 300 es
 void main() {

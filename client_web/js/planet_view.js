@@ -19,11 +19,11 @@
 // - No holes: a tile is drawn only once all its visible children can be drawn; until then it
 //   stands in for them. Tiles live in a bounded LRU cache and at most MAX_FETCHES are fetched at
 //   a time, coarser levels first.
-import { ApiError, fetchJson } from './api.js';
+import { ApiError, fetchJson, fetchText } from './api.js';
 import { compileProgram, createPictureTarget, deletePictureTarget } from './gl.js';
 import { decodeQuantizedMesh } from './quantized_mesh.js';
 import { Geodesy } from './planet_camera.js';
-import { SKY_FS, SKY_VS, TERRAIN_FS, TERRAIN_VS } from './planet_shaders.js';
+import { SKY_FS, SKY_VS, TERRAIN_VS, terrainFragmentShader } from './planet_shaders.js';
 import { curveMesh, GRID_CELLS, tileBounds, tileKey } from './planet_tiles.js';
 import { cross, dot, length as len, sub } from './vector.js';
 
@@ -43,10 +43,11 @@ export class PlanetView {
   /// Fetches the planet's definition and layer.json; throws an ApiError that names the planet
   /// when it does not exist.
   static async open(gl, id) {
-    let definition, layer;
+    let definition, layer, material;
     try {
       definition = await fetchJson(`/api/v1/planets/${encodeURIComponent(id)}`);
       layer = await fetchJson(`/api/v1/planets/${encodeURIComponent(id)}/layer.json`);
+      material = await fetchText('/api/v1/glsl/material.glsl');
     } catch (e) {
       if (e instanceof ApiError && (e.status === 404 || e.status === 400)) {
         throw new ApiError(`There is no planet "${id}"${e.status === 400 ? ` (${e.message})` : ''}.`, { status: e.status });
@@ -56,10 +57,12 @@ export class PlanetView {
     if (!gl.getExtension('EXT_color_buffer_float')) {
       throw new Error('This browser cannot render to float textures (EXT_color_buffer_float), which the viewer needs.');
     }
-    return new PlanetView(gl, id, definition, layer);
+    return new PlanetView(gl, id, definition, layer, material);
   }
 
-  constructor(gl, id, definition, layer) {
+  /// `material`: the server's material model (GET /api/v1/glsl/material.glsl), which colours land
+  /// here as it does scene pictures and colour tiles.
+  constructor(gl, id, definition, layer, material) {
     this.gl = gl;
     this.id = id;
     this.definition = definition;
@@ -78,7 +81,7 @@ export class PlanetView {
     const s = Math.min(this.seaLevel, 0) - 1;
     this.occluderRadii = [this.geodesy.a + s, this.geodesy.a + s, this.geodesy.b + s];
 
-    this.terrainProgram = compileProgram(gl, TERRAIN_VS, TERRAIN_FS);
+    this.terrainProgram = compileProgram(gl, TERRAIN_VS, terrainFragmentShader(material));
     this.skyProgram = compileProgram(gl, SKY_VS, SKY_FS);
     this.uniforms = new Map();
     for (const program of [this.terrainProgram, this.skyProgram]) {

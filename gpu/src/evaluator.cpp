@@ -240,6 +240,10 @@ std::pair<int, int> shader_stacks(const terrain::Program& program) {
   return {round_up(program.max_field_depth + 1, 4), round_up(program.max_frame_depth + 1, 2)};
 }
 
+std::string_view material_glsl() {
+  return glsl::material();
+}
+
 std::string_view trace_glsl() {
   static const std::string text = std::string(glsl::material()) + "\n" + std::string(glsl::trace());
   return text;

@@ -538,11 +538,13 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
   }
   if (rest.size() == 1 && rest[0] == "tilejson.json") {
     Result<terrain::TileScheme> scheme = terrain::parse_scheme(target.get("scheme", "webmercator"));
-    if (!scheme || *scheme == terrain::TileScheme::geographic) {
+    if (!scheme) {
       return problem(request, http::status::bad_request, "Bad scheme",
-                     "TileJSON describes XYZ tiles: scheme webmercator (default) or local",
+                     "TileJSON describes XYZ tiles (scheme webmercator, the default, or local) or "
+                     "geographic TMS tiles (scheme geographic, for Cesium's imagery)",
                      "/scheme");
     }
+    const bool geographic = *scheme == terrain::TileScheme::geographic;
     auto images = parse_tilejson_images(request, target.query);
     if (!images) return images.error();
     terrain::ProductMaker maker(*loaded.source);
@@ -553,7 +555,7 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
     json body{{"tilejson", "3.0.0"},
               {"name", loaded.scene->name},
               {"version", "1.0.0"},
-              {"scheme", "xyz"},
+              {"scheme", geographic ? "tms" : "xyz"},
               {"tiles",
                {origin + "/api/v1/scenes/" + pinned_ref + images->tiles_path() +
                 "&scheme=" + scheme_name}},
@@ -561,7 +563,8 @@ Outcome App::scene_product(const Request& request, const std::string& ref,
               {"maxzoom", maker.constants().max_useful_zoom[static_cast<int>(*scheme)]},
               {"tileSize", 256}};
     images->describe(body);
-    if (*scheme == terrain::TileScheme::webmercator) {
+    if (geographic) body["crs"] = "EPSG:4326";  // two tiles at zoom 0, rows from the south
+    if (*scheme != terrain::TileScheme::local) {
       const terrain::Georeference& g = loaded.source->georeference;
       const terrain::TileRange r =
           terrain::tiles_covering_area(*loaded.source, terrain::TileScheme::geographic, 14);
@@ -667,16 +670,31 @@ Response App::node_types(const Request& request) const {
   return json_text_response(request, text, kReleaseCacheControl);
 }
 
-Response App::trace_glsl(const Request& request) const {
-  // The node functions, the interpreter and the tracer: the very text the server's compute
-  // shaders are built from, for the browser to put after its own texture-reading prelude.
-  static const std::string text =
-      std::string(gpu::shared_glsl()) + "\n" + std::string(gpu::trace_glsl());
-  static const std::string etag = product_etag(text);
+namespace {
+// GLSL of this release, revalidated by its ETag.
+Response glsl_response(const Request& request, const std::string& text, const std::string& etag) {
   Response r = make_response(request, http::status::ok, text, "text/plain; charset=utf-8");
   r.set(http::field::cache_control, kReleaseCacheControl);
   answer_conditionally(request, r, etag);
   return r;
+}
+}  // namespace
+
+Response App::trace_glsl(const Request& request) const {
+  // The node functions, the interpreter, the material model and the tracer: the very text the
+  // server's compute shaders are built from, for the browser to put after its own
+  // texture-reading prelude.
+  static const std::string text =
+      std::string(gpu::shared_glsl()) + "\n" + std::string(gpu::trace_glsl());
+  static const std::string etag = product_etag(text);
+  return glsl_response(request, text, etag);
+}
+
+Response App::material_glsl(const Request& request) const {
+  // The material model alone (planet mode colours land with it).
+  static const std::string text(gpu::material_glsl());
+  static const std::string etag = product_etag(text);
+  return glsl_response(request, text, etag);
 }
 
 // The caches shared with other processes and other versions of the server hold a product under

@@ -91,6 +91,10 @@ const std::vector<App::Route>& App::routes() {
          [](App& a, const Request& r, const Target&, const M&) -> Outcome {
            return a.trace_glsl(r);
          }},
+        {get, "/api/v1/glsl/material.glsl", "material_glsl", Body::none, false,
+         [](App& a, const Request& r, const Target&, const M&) -> Outcome {
+           return a.material_glsl(r);
+         }},
         {get, "/api/v1/node-types", "node_types", Body::none, false,
          [](App& a, const Request& r, const Target&, const M&) -> Outcome {
            return a.node_types(r);

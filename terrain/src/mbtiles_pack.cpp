@@ -33,7 +33,7 @@ std::vector<std::pair<std::string, std::string>> metadata_rows(const PackPlan& p
   const int min_zoom = plan.zooms.front().z, max_zoom = plan.zooms.back().z;
   std::vector<std::pair<std::string, std::string>> rows{
       {"name", plan.name},
-      {"format", mesh ? "application/vnd.quantized-mesh" : "png"},
+      {"format", mesh ? "application/vnd.quantized-mesh" : pack::image_format(plan.format)},
       {"bounds",
        degrees(b.west) + "," + degrees(b.south) + "," + degrees(b.east) + "," + degrees(b.north)},
       {"center", degrees((b.west + b.east) / 2) + "," + degrees((b.south + b.north) / 2) + "," +

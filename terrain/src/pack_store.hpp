@@ -99,8 +99,11 @@ class SqliteTileSink : public TileSink {
 Result<PackReport> run_export(TileSink& sink, const PackPlan& plan, const MakeTileFactory& factory,
                               const PackOptions& options);
 
-/// "terrain-rgb", "terrarium" or "quantized-mesh".
+/// "terrain-rgb", "terrarium", "color-png", "color-jpg" or "quantized-mesh".
 std::string format_label(TileFormat format);
+// The image format of a raster pack's tiles as MBTiles and PMTiles metadata name it: "png" or
+// "jpg".
+std::string image_format(TileFormat format);
 /// Why `found` (the identity stored in a file) is not `wanted`, naming the first fields that
 /// differ; empty when they are equal.
 std::string identity_mismatch(const nlohmann::json& found, const nlohmann::json& wanted);

@@ -24,6 +24,7 @@ constexpr std::uint8_t kCompressionNone = 1;
 constexpr std::uint8_t kCompressionGzip = 2;
 constexpr std::uint8_t kTileTypeUnknown = 0;
 constexpr std::uint8_t kTileTypePng = 2;
+constexpr std::uint8_t kTileTypeJpeg = 3;
 constexpr std::size_t kMaxDirectoryBytes = std::size_t{256} << 20;
 
 std::uint64_t tiles_below(int z) {
@@ -177,7 +178,8 @@ nlohmann::json pack_metadata(const PackPlan& plan) {
       {"description", plan.description},
       {"type", "baselayer"},
       {"version", "1"},
-      {"format", plan.format == TileFormat::quantized_mesh ? "quantized-mesh-1.0" : "png"},
+      {"format", plan.format == TileFormat::quantized_mesh ? "quantized-mesh-1.0"
+                                                           : pack::image_format(plan.format)},
       {"encoding", pack::format_label(plan.format)},
       {"tile_scheme", std::string(scheme_name(plan.scheme))},
       {"crs", geographic ? "EPSG:4326" : "EPSG:3857"},
@@ -269,7 +271,9 @@ Result<PmtilesHeader> assemble(const std::string& path, Database& scratch, const
   h.internal_compression = kCompressionGzip;
   h.tile_compression =
       plan.format == TileFormat::quantized_mesh ? kCompressionGzip : kCompressionNone;
-  h.tile_type = plan.format == TileFormat::quantized_mesh ? kTileTypeUnknown : kTileTypePng;
+  h.tile_type = plan.format == TileFormat::quantized_mesh ? kTileTypeUnknown
+                : plan.format == TileFormat::color_jpeg   ? kTileTypeJpeg
+                                                          : kTileTypePng;
   h.min_zoom = plan.zooms.front().z + (geographic ? 1 : 0);
   h.max_zoom = plan.zooms.back().z + (geographic ? 1 : 0);
   h.min_lon = plan.bounds.west;

@@ -175,8 +175,9 @@ Result<PackReport> write_pack(const std::string& path, const PackPlan& plan,
   Result<PackFormat> format = pack_format_for_path(path);
   if (!format) return format.error();
   if (plan.format != TileFormat::terrain_rgb && plan.format != TileFormat::terrarium &&
-      plan.format != TileFormat::quantized_mesh) {
-    return Error{"packs hold terrain-rgb, terrarium or quantized-mesh tiles", "/format"};
+      plan.format != TileFormat::quantized_mesh && !is_color(plan.format)) {
+    return Error{"packs hold terrain-rgb, terrarium, colour (PNG or JPEG) or quantized-mesh tiles",
+                 "/format"};
   }
   if (plan.tile_count() == 0) return Error{"the plan holds no tiles", "/zoom"};
   return *format == PackFormat::mbtiles ? write_mbtiles(path, plan, factory, options)
@@ -187,7 +188,14 @@ namespace pack {
 
 std::string format_label(TileFormat format) {
   const TileFormatInfo& info = format_info(format);
-  return std::string(info.encoding.empty() ? "quantized-mesh" : info.encoding);
+  if (info.encoding.empty()) return "quantized-mesh";
+  // Colour comes as PNG or JPEG: a pack of one is not resumed as the other.
+  if (is_color(format)) return std::string(info.encoding) + "-" + std::string(info.extension);
+  return std::string(info.encoding);
+}
+
+std::string image_format(TileFormat format) {
+  return std::string(format_info(format).extension);
 }
 
 std::string identity_mismatch(const nlohmann::json& found, const nlohmann::json& wanted) {

@@ -265,6 +265,13 @@ TEST_F(HttpApi, ColorTilesArePngOrJpegImageryDescribedByTileJson) {
                 "webmercator"),
             std::string::npos)
       << body.dump();
+  // For Cesium's UrlTemplateImageryProvider: geographic TMS tiles over the scene's bounds.
+  const json tms =
+      body_json(get("/api/v1/scenes/lake-dunes/tilejson.json?encoding=color&scheme=geographic"));
+  EXPECT_EQ(tms["scheme"], "tms");
+  EXPECT_EQ(tms["crs"], "EPSG:4326");
+  EXPECT_EQ(tms["bounds"], body["bounds"]);
+  EXPECT_NE(tms["tiles"][0].get<std::string>().find("&scheme=geographic"), std::string::npos);
 }
 
 TEST_F(HttpApi, TileSizeAndBorderOptionsShapeThePng) {
@@ -734,7 +741,7 @@ TEST_F(HttpApi, MalformedTileRequestsAre400Or404WithAPointer) {
       {s + "/sample?x=0", 400, "/y"},
       {s + "/sample?x=0&y=1e999", 400, "/y"},
       {s + "/sample?x=0&y=0&lod=-1", 400, "/lod"},
-      {s + "/tilejson.json?scheme=geographic", 400, "/scheme"},
+      {s + "/tilejson.json?scheme=polar", 400, "/scheme"},
       {s + "/tilejson.json?encoding=gray16", 400, "/encoding"},
       {s + "/tilejson.json?encoding=color&format=gif", 400, "/format"},
       {s + "/tilejson.json?format=jpg", 400, "/format"},
@@ -813,11 +820,21 @@ TEST_F(HttpApi, CorsReachesErrorsAndRefusalsToo) {
   EXPECT_EQ(header(refused, http::field::access_control_allow_origin), "https://a.example");
 }
 
+TEST_F(HttpApi, TheMaterialModelIsServedAloneAndInsideTheTracer) {
+  const Response material = get("/api/v1/glsl/material.glsl");
+  ASSERT_EQ(material.result_int(), 200u);
+  EXPECT_NE(material.body().find("vec3 material_albedo("), std::string::npos);
+  const Response trace = get("/api/v1/glsl/trace.glsl");
+  ASSERT_EQ(trace.result_int(), 200u);
+  // The same text: the planet view colours land with what the scene tracer shades with.
+  EXPECT_NE(trace.body().find(material.body()), std::string::npos);
+}
+
 TEST_F(HttpApi, NotModifiedKeepsTheHeadersOfItsOk) {
   // RFC 9110 §15.4.5: a 304 carries the ETag, Cache-Control and Vary its 200 would.
   for (const char* url : {"/api/v1/scenes/hills-river@1", "/api/v1/scenes/hills-river@1/program",
                           "/api/v1/scenes/hills-river@1/tiles/0/0/0.png", "/api/v1/glsl/trace.glsl",
-                          "/api/v1/node-types"}) {
+                          "/api/v1/glsl/material.glsl", "/api/v1/node-types"}) {
     SCOPED_TRACE(url);
     const Response ok = get(url);
     ASSERT_EQ(ok.result_int(), 200u);

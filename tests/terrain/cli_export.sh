@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `terrain export` and `planet export` as a user runs them: GDAL reads a terrain-RGB MBTiles pack
 # (driver, size, bands, georeferencing), the `pmtiles` npm reader finds the CLI's tile bytes in a
-# PMTiles pack, an export killed with SIGKILL resumes to the same file, a pack made with other
+# PMTiles pack (terrain-RGB, and colour imagery as JPEG), an export killed with SIGKILL resumes to the same file, a pack made with other
 # parameters is refused, and bad ranges fail naming the option before any file is created.
 set -euo pipefail
 cli="$1"
@@ -44,6 +44,14 @@ node "$reader" "$out/full.pmtiles" "$z" "$x" "$y" "$out/from-pack.png" > "$out/r
 [ "$(field 'j.metadata.tile_scheme' < "$out/read.json")" = webmercator ] || fail "no tile scheme"
 "$cli" tile "$scene" "$z" "$x" "$y" --scheme webmercator -o "$out/served.png" > /dev/null
 cmp "$out/from-pack.png" "$out/served.png" || fail "tile $z/$x/$y differs from terrain tile"
+
+# Colour imagery: a JPEG PMTiles pack as the npm reader sees it, holding `terrain tile`'s bytes.
+"$cli" export "$scene" -o "$out/colour.pmtiles" --zoom 12-12 --format jpg > "$out/colour.json"
+read -r z x y < <(field "j.ranges[0].slice(0, 3).join(' ')" < "$out/colour.json")
+node "$reader" "$out/colour.pmtiles" "$z" "$x" "$y" "$out/colour-pack.jpg" > "$out/colour-read.json"
+[ "$(field 'j.header.tileType' < "$out/colour-read.json")" = 3 ] || fail "tile type is not jpeg"
+"$cli" tile "$scene" "$z" "$x" "$y" --scheme webmercator -o "$out/colour-served.jpg" > /dev/null
+cmp "$out/colour-pack.jpg" "$out/colour-served.jpg" || fail "colour tile $z/$x/$y differs"
 
 # Killed exports resume: the PMTiles file is byte-identical to the uninterrupted one; the
 # MBTiles pack holds the same pixels.
@@ -104,6 +112,8 @@ expect_error '--max-tiles' "$bad" "$cli" export "$scene" -o "$bad" --zoom 0-12 \
   --bbox -180,-85,180,85
 expect_error '--max-tiles' "$bad" "$cli" export "$scene" -o "$bad" --zoom 13-15 --max-tiles 3
 expect_error '--encoding' "$bad" "$cli" export "$scene" -o "$bad" --zoom 3 --encoding gray16
+expect_error '--encoding' "$bad" "$cli" export "$scene" -o "$bad" --zoom 3 --format jpg \
+  --encoding terrarium
 expect_error '--format' "$bad" "$cli" export "$scene" -o "$bad" --zoom 3 --format glb
 expect_error '-o' "$out/bad.zip" "$cli" export "$scene" -o "$out/bad.zip" --zoom 3
 expect_error '--bbox' "$out/p.mbtiles" "$planet" export -o "$out/p.mbtiles" --zoom 2 \

@@ -329,6 +329,31 @@ TEST(PmtilesPack, HoldsTheServersBytesAndASpecConformingLayout) {
   EXPECT_FALSE(reader.tile(8, 0, 0).value().has_value());
 }
 
+TEST(PmtilesPack, HoldsColourImageryAsJpegOrPngTiles) {
+  const TileSource source = testing::example_source("lake-dunes");
+  TempDir dir;
+  for (const TileFormat format : {TileFormat::color_jpeg, TileFormat::color_png}) {
+    const bool jpeg = format == TileFormat::color_jpeg;
+    const PackPlan plan = scene_plan(source, TileScheme::webmercator, format, 12, 13);
+    const std::string path = dir.file(jpeg ? "jpeg.pmtiles" : "png.pmtiles");
+    write_pack(path, plan, product_factory(source, plan.scheme, plan.format)).value();
+    const PmtilesReader reader = PmtilesReader::open(path).value();
+    EXPECT_EQ(reader.header().tile_type, jpeg ? 3 : 2);
+    EXPECT_EQ(reader.metadata()["format"], jpeg ? "jpg" : "png");
+    EXPECT_EQ(reader.metadata()["encoding"], jpeg ? "color-jpg" : "color-png");
+    const ZoomRange& zoom = plan.zooms.back();
+    const TileAddress at{zoom.z, zoom.range.min_x, zoom.range.min_y};
+    const auto stored =
+        reader.tile(at.z, static_cast<std::uint64_t>(at.x), static_cast<std::uint64_t>(at.y))
+            .value();
+    ASSERT_TRUE(stored.has_value());
+    EXPECT_EQ(*stored, ProductMaker(source).make(plan.scheme, at, format)->bytes);
+  }
+  // A pack of JPEG tiles is not resumed as PNG: the identities differ.
+  EXPECT_NE(scene_plan(source, TileScheme::webmercator, TileFormat::color_jpeg, 12, 13).identity(),
+            scene_plan(source, TileScheme::webmercator, TileFormat::color_png, 12, 13).identity());
+}
+
 TEST(PmtilesPack, StoresGeographicMeshesGzippedOneZoomDown) {
   const TileSource source = testing::example_source("hills-river");
   const PackPlan plan =

@@ -112,6 +112,9 @@ std::string_view shared_glsl();
 /// concatenated after shared_glsl(); besides the prelude's
 /// program access it needs fetch_bounds(i) over terrain::LipschitzGrid::pack().
 std::string_view trace_glsl();
+/// The material model alone (material.glsl: terrain/material.hpp's twin), for shaders that
+/// colour terrain without tracing it (the browser's planet mode).
+std::string_view material_glsl();
 /// The field- and frame-stack sizes (TERRAIN_MAX_FIELDS, TERRAIN_MAX_FRAMES) that a shader
 /// interpreting `program` declares.
 std::pair<int, int> shader_stacks(const terrain::Program& program);

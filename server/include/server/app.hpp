@@ -184,6 +184,7 @@ class App {
   Outcome scene_analysis(const Request& request, const LoadedVersion& loaded, const Target& target,
                          bool pinned);
   Response trace_glsl(const Request& request) const;
+  Response material_glsl(const Request& request) const;
   Response node_types(const Request& request) const;
   bool token_matches(std::string_view given) const;  // constant time
   Response scene_changes(const Request& request, const std::string& id, const Target& target);

@@ -61,7 +61,8 @@ TileBounds range_bounds_degrees(TileScheme scheme, int z, const TileRange& range
 /// What to write: the tiles, what they are, and the metadata a reader needs.
 struct PackPlan {
   TileScheme scheme = TileScheme::webmercator;
-  TileFormat format = TileFormat::terrain_rgb;  ///< terrain_rgb, terrarium or quantized_mesh
+  TileFormat format = TileFormat::terrain_rgb;  ///< terrain_rgb, terrarium, color_png,
+                                                ///< color_jpeg or quantized_mesh
   std::vector<ZoomRange> zooms;                 ///< ascending z
   TileBounds bounds;                            ///< degrees: the bbox, or the tiles' footprint
   std::string name;                             ///< the MBTiles / PMTiles "name"
@@ -138,7 +139,7 @@ struct PmtilesHeader {
   bool clustered = false;
   std::uint8_t internal_compression = 0;  ///< 1 none, 2 gzip
   std::uint8_t tile_compression = 0;
-  std::uint8_t tile_type = 0;  ///< 0 unknown, 2 png
+  std::uint8_t tile_type = 0;  ///< 0 unknown, 2 png, 3 jpeg
   int min_zoom = 0, max_zoom = 0, center_zoom = 0;
   double min_lon = 0, min_lat = 0, max_lon = 0, max_lat = 0, center_lon = 0, center_lat = 0;
 };
