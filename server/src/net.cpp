@@ -471,12 +471,6 @@ struct HttpServer::State {
     bool left_http_ = false;
   };
 
-  // A request read whole, with the room its body holds among all bodies in memory.
-  struct Received {
-    Request request;
-    BodyBudget::Reservation room;
-  };
-
   // The answer owed to a header that could not be read; none when the client left or idled out
   // without sending a byte.
   std::optional<Response> unread_header_answer(const boost::system::error_code& ec, bool timed_out,
@@ -518,27 +512,6 @@ struct HttpServer::State {
     return std::nullopt;
   }
 
-  // Reads the next request's header within its deadline; false when the connection is to close
-  // (after the answer a bad header is owed).
-  awaitable<bool> read_header(Connection& c, http::request_parser<http::empty_body>& parser) {
-    parser.header_limit(static_cast<std::uint32_t>(config.header_limit));
-    // The route's body limit is checked once the target is known; the parser's default (1 MiB)
-    // would refuse larger declared bodies as malformed before that.
-    parser.body_limit(boost::none);
-    boost::system::error_code ec;
-    c.deadline.arm(c.first_request ? config.header_timeout_ms : config.idle_timeout_ms,
-                   Deadline::Expiry::shut_receive);
-    co_await http::async_read_header(*c.stream, c.buffer, parser,
-                                     asio::redirect_error(use_awaitable, ec));
-    const bool timed_out = c.deadline.expired();
-    c.deadline.disarm();
-    if (!ec) co_return true;
-    if (auto owed = unread_header_answer(ec, timed_out, c.buffer.size() > 0)) {
-      co_await write(*c.stream, c.deadline, *owed);
-    }
-    co_return false;
-  }
-
   // Turns the connection into a live channel (docs/live.md), or answers why not.
   awaitable<void> open_live(Connection& c, http::request_parser<http::empty_body>& parser,
                             std::chrono::steady_clock::time_point started) {
@@ -562,10 +535,9 @@ struct HttpServer::State {
                         live_sessions, live_messages.get_executor());
   }
 
-  // Why a request may not send its body, decided before a byte of it is read: framing that
-  // could smuggle a request, a route that takes none, the write token, the route's limit, and
-  // room among all the bodies being received (a client without a token pins no memory).
-  // Reserves the room when it may.
+  // Why a request may not send its body, decided before a byte of it is read: a route that takes
+  // none, the write token, the route's limit, and room among all the bodies being received (a
+  // client without a token pins no memory). Reserves the room when it may.
   std::optional<Response> refuse_body(const Request& request, const App::BodyPolicy& policy,
                                       boost::optional<std::uint64_t> declared,
                                       BodyBudget::Reservation& room) {
@@ -594,59 +566,57 @@ struct HttpServer::State {
     return std::nullopt;
   }
 
-  // The rest of a request whose header has been read: its body, if it may send one. Nullopt
-  // when the connection is to close (after the answer owed).
-  awaitable<std::optional<Received>> read_body(Connection& c,
-                                               http::request_parser<http::empty_body>& header) {
-    const std::string_view target(header.get().target().data(), header.get().target().size());
-    Received received;
-    const App::BodyPolicy policy = app.body_policy(header.get().method(), target);
+  // Why a request is answered before its body is read, if it is: framing that could smuggle a
+  // request, then refuse_body's reasons. The answer goes with the header as a request.
+  struct Refusal {
+    Request request;
+    Response response;
+  };
+  std::optional<Refusal> refuse_early(const http::request_parser<http::empty_body>& header,
+                                      const App::BodyPolicy& policy,
+                                      BodyBudget::Reservation& room) {
     if (const auto framing = check_framing(header.get())) {
-      const Request request(header.get().base());
-      co_await refuse(*c.stream, c.deadline, request,
-                      problem(request, framing->status, "Bad framing", framing->detail,
-                              "/headers/transfer-encoding"));
-      co_return std::nullopt;
+      Request request(header.get().base());
+      Response response = problem(request, framing->status, "Bad framing", framing->detail,
+                                  "/headers/transfer-encoding");
+      return Refusal{std::move(request), std::move(response)};
     }
-    if (header.chunked() || header.content_length().value_or(0) > 0) {
-      const Request request(header.get().base());  // a copy, made only for a body
-      if (auto refusal = refuse_body(request, policy, header.content_length(), received.room)) {
-        co_await refuse(*c.stream, c.deadline, request, std::move(*refusal));
-        co_return std::nullopt;
-      }
+    if (!header.chunked() && header.content_length().value_or(0) == 0) return std::nullopt;
+    Request request(header.get().base());  // a copy, made only for a body
+    if (auto refused = refuse_body(request, policy, header.content_length(), room)) {
+      return Refusal{std::move(request), std::move(*refused)};
     }
-    http::request_parser<http::string_body> parser(std::move(header));
-    parser.body_limit(static_cast<std::uint64_t>(std::max<std::int64_t>(policy.limit, 0)));
-    if (!parser.is_done()) {  // most requests (GETs) have no body and need no second read
-      boost::system::error_code ec;
-      c.deadline.arm(config.body_timeout_ms, Deadline::Expiry::shut_receive);
-      co_await http::async_read(*c.stream, c.buffer, parser,
-                                asio::redirect_error(use_awaitable, ec));
-      const bool timed_out = c.deadline.expired();
-      c.deadline.disarm();
-      if (ec) {
-        if (auto owed = unread_body_answer(ec, timed_out, policy.limit)) {
-          co_await write(*c.stream, c.deadline, *owed);
-        }
-        co_return std::nullopt;
-      }
-    }
-    received.request = parser.release();
-    co_return received;
+    return std::nullopt;
   }
 
-  // The handler's answer, running its deferred work (a tile to make, a version to load) on the
-  // pools.
-  awaitable<Response> answer(const std::shared_ptr<tcp::socket>& stream, const Request& request) {
+  // Reads a request's body within its deadline and limit; false when the connection is to close
+  // (after the answer owed).
+  awaitable<bool> read_body(Connection& c, http::request_parser<http::string_body>& parser,
+                            std::int64_t limit) {
+    boost::system::error_code ec;
+    c.deadline.arm(config.body_timeout_ms, Deadline::Expiry::shut_receive);
+    co_await http::async_read(*c.stream, c.buffer, parser, asio::redirect_error(use_awaitable, ec));
+    const bool timed_out = c.deadline.expired();
+    c.deadline.disarm();
+    if (!ec) co_return true;
+    if (auto owed = unread_body_answer(ec, timed_out, limit)) {
+      co_await write(*c.stream, c.deadline, *owed);
+    }
+    co_return false;
+  }
+
+  // The answer of a request whose handling was deferred (a tile to make, a version to load):
+  // the work runs on its pool, and a request whose version it loaded is handled again.
+  awaitable<Response> answer_deferred(const std::shared_ptr<tcp::socket>& stream,
+                                      const Request& request, Outcome outcome) {
     for (int pass = 0;; ++pass) {
-      Outcome outcome = app.handle(request);
-      Deferred* work = std::get_if<Deferred>(&outcome);
-      if (work == nullptr) co_return std::move(std::get<Response>(outcome));
-      std::optional<Response> made = co_await run_deferred(stream, request, *work);
+      if (auto* done = std::get_if<Response>(&outcome)) co_return std::move(*done);
+      Deferred& work = std::get<Deferred>(outcome);
+      std::optional<Response> made = co_await run_deferred(stream, request, work);
       if (made) co_return std::move(*made);
       // Prepared, but its client hung up meanwhile (run_deferred counted it): the work the
       // request was loaded for is not started at all.
-      if (work->abandoned->load()) co_return Response{http::status::service_unavailable, 11};
+      if (work.abandoned->load()) co_return Response{http::status::service_unavailable, 11};
       // Prepared (its version loaded): handled again, now without loading. Twice at most, so
       // that a version evicted meanwhile cannot keep a request going round.
       if (pass == 1) {
@@ -655,6 +625,7 @@ struct HttpServer::State {
         busy.set(http::field::retry_after, "1");
         co_return busy;
       }
+      outcome = app.handle(request);
     }
   }
 
@@ -680,9 +651,28 @@ struct HttpServer::State {
         std::move(accepted), worker,
         std::chrono::milliseconds(std::min({config.header_timeout_ms, config.idle_timeout_ms,
                                             config.body_timeout_ms, config.request_timeout_ms})));
+    // A cached answer's whole path stays in this coroutine: only bodies, deferred work and
+    // writes await other coroutines (each costs a frame; three more per request were 5 % of
+    // bench/http_bench.sh's cached throughput).
     while (!stopping) {
       http::request_parser<http::empty_body> header;
-      if (!co_await read_header(c, header)) break;
+      header.header_limit(static_cast<std::uint32_t>(config.header_limit));
+      // The route's body limit is checked once the target is known; the parser's default (1 MiB)
+      // would refuse larger declared bodies as malformed before that.
+      header.body_limit(boost::none);
+      boost::system::error_code ec;
+      c.deadline.arm(c.first_request ? config.header_timeout_ms : config.idle_timeout_ms,
+                     Deadline::Expiry::shut_receive);
+      co_await http::async_read_header(*c.stream, c.buffer, header,
+                                       asio::redirect_error(use_awaitable, ec));
+      const bool timed_out = c.deadline.expired();
+      c.deadline.disarm();
+      if (ec) {
+        if (auto owed = unread_header_answer(ec, timed_out, c.buffer.size() > 0)) {
+          co_await write(*c.stream, c.deadline, *owed);
+        }
+        break;
+      }
       const auto started = std::chrono::steady_clock::now();
       c.first_request = false;
       c.set_idle(false);  // busy: not closed by a shutdown
@@ -691,10 +681,24 @@ struct HttpServer::State {
         co_await open_live(c, header, started);
         co_return;
       }
-      std::optional<Received> received = co_await read_body(c, header);
-      if (!received) break;
-      const Request& request = received->request;
-      Response response = co_await answer(c.stream, request);
+      const App::BodyPolicy policy = app.body_policy(header.get().method(), target);
+      BodyBudget::Reservation room;  // held until the answer is written
+      if (std::optional<Refusal> refusal = refuse_early(header, policy, room)) {
+        co_await refuse(*c.stream, c.deadline, refusal->request, std::move(refusal->response));
+        break;
+      }
+      http::request_parser<http::string_body> parser(std::move(header));
+      parser.body_limit(static_cast<std::uint64_t>(std::max<std::int64_t>(policy.limit, 0)));
+      // Most requests (GETs) have no body and need no second read.
+      if (!parser.is_done() && !co_await read_body(c, parser, policy.limit)) break;
+      const Request request = parser.release();
+      Outcome outcome = app.handle(request);
+      Response response;
+      if (auto* done = std::get_if<Response>(&outcome)) {
+        response = std::move(*done);
+      } else {
+        response = co_await answer_deferred(c.stream, request, std::move(outcome));
+      }
       finish(request, response);
       const int status = static_cast<int>(response.result_int());
       // Counted before the write: a client that has its answer finds it in /metrics.
