@@ -55,6 +55,11 @@ Rgb material_albedo(const MaterialInput& input) {
   return ground;
 }
 
+Vec3 normalise(Vec3 v) {
+  const float l = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+  return {v.x / l, v.y / l, v.z / l};
+}
+
 float sun_light(Vec3 normal, Vec3 sun) {
   const float diffuse = std::max(0.0f, normal.x * sun.x + normal.y * sun.y + normal.z * sun.z);
   return 0.30f + 0.75f * diffuse;

@@ -42,11 +42,6 @@ Interval clip(const TraceDomain& d, const Ray& r, float t_max) {
   return {lo, hi};
 }
 
-Vec3 normalise(Vec3 v) {
-  const float l = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
-  return {v.x / l, v.y / l, v.z / l};
-}
-
 }  // namespace
 
 LipschitzGrid::LipschitzGrid(Evaluator& evaluator, const Box2& area, int cells)

@@ -34,11 +34,6 @@ Status check_inputs(const HeightTile& tile, const ColorTileInputs& inputs) {
 
 constexpr float kNoWater = std::numeric_limits<float>::quiet_NaN();
 
-Vec3 normalise(Vec3 v) {
-  const float length = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
-  return {v.x / length, v.y / length, v.z / length};
-}
-
 }  // namespace
 
 Result<std::vector<std::uint8_t>> color_pixels(const HeightTile& tile,

@@ -46,6 +46,9 @@ float shore_band_for(Interval relief);
 /// relief, 10 % lower on slopes facing north and none on cliffs; sand on shores; water.
 Rgb material_albedo(const MaterialInput& input);
 
+/// v scaled to unit length (v must not be zero): the normals the model and the tracer light.
+Vec3 normalise(Vec3 v);
+
 /// The light a surface with unit normal `normal` receives from a sun in unit direction `sun`:
 /// 0.30 of ambient light plus 0.75 of the cosine of the angle between them (none from behind).
 float sun_light(Vec3 normal, Vec3 sun);
