@@ -45,7 +45,8 @@ Usage:
                                          heightmap: OUT.tif (float32 metres) or OUT.png (16-bit,
                                          scaled to the scene's elevation range, printed)
   terrain render SCENE.json -o OUT.png [--width W] [--height H] [--plain] [--water Z]
-                                         sphere-traced picture with simple shading
+       [--no-shadows] [--no-occlusion]   sphere-traced picture: materials, soft sun shadows,
+                                         sky occlusion, sky and aerial perspective
   terrain tile SCENE.json Z X Y -o OUT.{png,jpg,tif,terrain,glb,drc} [--scheme S] [--encoding E]
        [--size N] [--border] [--grid N] [--max-error M] [--regular] [--gunzip]
        [--backend auto|gpu|cpu]
@@ -275,6 +276,8 @@ int cmd_render(const Args& args) {
       default_camera(program, area, static_cast<int>(*width), static_cast<int>(*height));
   RenderOptions options;
   options.trace.accelerated = !args.has("--plain");
+  options.shadows = !args.has("--no-shadows");
+  options.occlusion = !args.has("--no-occlusion");
   if (args.has("--water"))
     options.water_level = static_cast<float>(parse_number(args.get("--water", "0")).value_or(-1e9));
   options.progress = progress_bar;
@@ -666,8 +669,9 @@ int cmd_export(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const auto args = tools::parse_cli_args(
-      argc, argv, {"--plain", "--help", "-h", "--border", "--regular", "--gunzip"});
+  const auto args = tools::parse_cli_args(argc, argv,
+                                          {"--plain", "--no-shadows", "--no-occlusion", "--help",
+                                           "-h", "--border", "--regular", "--gunzip"});
   if (!args) {
     std::cerr << "terrain: " << args.error().message << "\n";
     return 2;

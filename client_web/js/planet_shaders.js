@@ -53,8 +53,10 @@ const vec3 ZENITH = vec3(0.33, 0.55, 0.85);  // scene mode's sky overhead
 const vec3 SPACE = vec3(0.01, 0.012, 0.03);
 `;
 
-// The terrain's fragment shader around the server's material model (material.glsl, the GLSL twin
-// of terrain/material.cpp): land takes the colours of scene pictures and colour tiles.
+// The terrain's fragment shader around the server's material model and lighting (material.glsl
+// and lighting.glsl, the GLSL twins of terrain/material.cpp and terrain/lighting.cpp): land takes
+// the colours of scene pictures and colour tiles, water reflects the sky by Fresnel's weight with
+// the sun's glint, and the air in front of both is the pictures' aerial perspective.
 export function terrainFragmentShader(material) {
   return `#version 300 es
 precision highp float;
@@ -95,16 +97,22 @@ void main() {
   float facing = material_northness(-dot(n, east) / along, -dot(n, north) / along);
   float shore = 1.0 - material_ramp(v_height - u_sea_level, 0.0, 15.0);
   vec3 ground = material_albedo(height, slope, facing, shore, false);
-  vec3 land = ground * material_sun_light(n, u_sun);
-  // Water: deeper is darker; lit from the ellipsoid's up with a glint of the sun.
+  // The sky's light fades through twilight into the night side.
+  float daylight = smoothstep(-0.1, 0.2, dot(up, u_sun));
+  vec3 land = lighting_lit_surface(ground, n, u_sun, 1.0, daylight);
+  // Water: deeper is darker; its surface mirrors the sky and the sun in the local frame (east,
+  // north, up), where lighting_water expects them.
   float depth = clamp((u_sea_level - v_height) / 3000.0, 0.0, 1.0);
   vec3 sea = mix(vec3(0.12, 0.30, 0.45), vec3(0.05, 0.16, 0.32), depth);
-  float glint = pow(max(0.0, dot(reflect(-u_sun, up), -view)), 40.0);
-  sea = sea * (0.45 + 0.6 * max(0.0, dot(up, u_sun))) + vec3(0.5) * glint;
+  sea = lighting_lit_surface(sea, up, u_sun, 1.0, daylight);
+  vec3 local_view = vec3(dot(view, east), dot(view, north), dot(view, up));
+  vec3 local_sun = vec3(dot(u_sun, east), dot(u_sun, north), dot(u_sun, up));
+  sea = lighting_water(sea, local_view, local_sun, 1.0) * max(daylight, 0.05);
   vec3 colour = mix(land, sea, clamp(water, 0.0, 1.0));
-  // Fog: the atmosphere between the eye and the surface.
-  float fog = 1.0 - exp(-shell_length(view, distance) / u_fog_scale);
-  out_colour = vec4(mix(colour, HAZE, fog), 1.0);
+  // The air between the eye and the surface: the pictures' aerial perspective over the path
+  // inside the atmosphere's shell, dimmed on the night side.
+  vec3 seen = lighting_aerial(colour, view, shell_length(view, distance), u_fog_scale, u_sun);
+  out_colour = vec4(mix(colour, seen, max(daylight, 0.1)), 1.0);
   out_distance = vec4(distance, 0.0, 0.0, 1.0);
   gl_FragDepth = log2(v_w) * u_log_depth * 0.5;
 }`;

@@ -67,7 +67,7 @@ void main() {
   TraceCamera camera = TraceCamera(u_eye, u_forward, u_right, u_up, u_tan_half, u_aspect, u_size);
   TraceSetup setup = TraceSetup(u_area.xy, u_area.zw, u_elevation.x, u_elevation.y, u_epsilon,
                                 u_max_steps, u_initial_step, u_lod_per_metre, u_t_max, true,
-                                u_water_level, u_span, u_sun);
+                                u_water_level, u_span, u_sun, true, true);
   // Pixel centres with y = 0 at the top, as terrain::Camera counts them.
   vec2 pixel = vec2(gl_FragCoord.x, u_size.y - gl_FragCoord.y);
   TracePixel result = trace_pixel(camera, setup, pixel);

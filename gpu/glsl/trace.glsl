@@ -1,10 +1,11 @@
 // Sphere tracing of the terrain h(p) = p_z − f(p_xy) and its shading: a port of
 // terrain/src/sphere_trace.cpp (sphere_trace with the accelerated §7.2 algorithm of Génevaux et
-// al. 2015 over a LipschitzGrid, Camera::ray, and render()'s sky, materials, sun and fog),
-// operation for operation, so that a pixel's ray, steps and hit distance are the CPU's.
+// al. 2015 over a LipschitzGrid, Camera::ray, and render()'s materials, shadow rays, sky
+// visibility, sky and aerial perspective), operation for operation, so that a pixel's rays,
+// steps and hit distance are the CPU's.
 //
 // Needs, before it: the shared GLSL (portable_math, noise, nodes, interpreter), material.glsl
-// (the ground's colours, which trace_glsl() puts first) and from the prelude fetch_bounds(i), the
+// and lighting.glsl (which trace_glsl() puts first) and from the prelude fetch_bounds(i), the
 // floats of terrain::LipschitzGrid::pack() (a storage buffer on the server; a texture in the
 // browser). It declares no uniform or buffer and no entry point: the
 // caller fills TraceCamera and TraceSetup (from uniforms) and calls trace_pixel. GLSL ES 3.00
@@ -34,8 +35,10 @@ struct TraceSetup {
   float t_max;
   bool accelerated;
   float water_level;
-  float span;  // the larger side of the area (the fog's scale)
+  float span;  // the larger side of the area (the scale of the air and of sky visibility)
   vec3 sun;    // terrain::sun_direction()
+  bool shadows;    // RenderOptions::shadows
+  bool occlusion;  // RenderOptions::occlusion
 };
 
 struct TracePixel {
@@ -105,13 +108,13 @@ float trace_bound(vec2 lo, vec2 hi, float spacing, float far_spacing) {
   return worst;
 }
 
-// terrain::sphere_trace (accelerated or plain) inside the setup's domain, resumable: trace_start
-// clips the ray, trace_advance takes up to `budget` steps, so that a caller can split a long
-// trace over several dispatches (llvmpipe ends every loop of an invocation after 65 535
-// iterations in all, counting the interpreter's). Splitting changes nothing in the result.
+// terrain::sphere_trace (accelerated or plain) inside the setup's domain, a step at a time:
+// trace_start clips the ray, trace_step takes one step given the program's elevation at its
+// point (pixel_advance, below, evaluates it).
 const int kTraceRunning = 0;
 const int kTraceHit = 1;
 const int kTraceMissed = 2;
+const int kTraceSkipped = 3;  // a shadow ray never traced (shadows off, or facing away)
 
 struct TraceState {
   float t;
@@ -119,12 +122,16 @@ struct TraceState {
   float delta;
   float last_lambda;
   int steps;
-  int status;  // kTraceRunning, kTraceHit or kTraceMissed
+  int status;        // kTraceRunning, kTraceHit, kTraceMissed or kTraceSkipped
+  float closest;     // TraceResult::closest: the least h / t so far
+  float lod_offset;  // TraceOptions::lod_offset
 };
 
 TraceState trace_start(TraceSetup s, vec3 origin, vec3 direction) {
   const float kParallel = uintBitsToFloat(0x2b8cbcccu);  // 1e-12
-  TraceState state = TraceState(0.0, s.t_max, s.initial_step, fetch_bounds(2u), 0, kTraceRunning);
+  const float kInfinity = uintBitsToFloat(0x7f800000u);
+  TraceState state = TraceState(0.0, s.t_max, s.initial_step, fetch_bounds(2u), 0, kTraceRunning,
+                                kInfinity, 0.0);
   // clip(): the ray's interval inside area × elevation (slab method).
   float lo = 0.0;
   float hi = s.t_max;
@@ -151,65 +158,82 @@ TraceState trace_start(TraceSetup s, vec3 origin, vec3 direction) {
   return state;
 }
 
-void trace_advance(TraceSetup s, vec3 origin, vec3 direction, inout TraceState state,
-                   int budget) {
+// Whether the trace takes another step; ends it (missed) past its interval or step limit.
+bool trace_wants_step(TraceSetup s, inout TraceState state) {
+  if (state.status != kTraceRunning) return false;
+  if (!(state.t <= state.hi && state.steps < s.max_steps)) {
+    state.status = kTraceMissed;
+    return false;
+  }
+  return true;
+}
+
+// Sample spacing at ray parameter t: the level of detail of the light's whole path.
+float trace_spacing(TraceSetup s, TraceState state, float t) {
+  TERRAIN_PRECISE float travelled = state.lod_offset + t;
+  TERRAIN_PRECISE float spacing = s.lod_per_metre * travelled;
+  return spacing;
+}
+
+// One step of sphere_trace's loop, given f, the program's elevation at the step's point
+// trace_at(origin, direction, state.t) and spacing trace_spacing(s, state, state.t).
+void trace_step(TraceSetup s, vec3 origin, vec3 direction, inout TraceState state, float f) {
   const float kInfinity = uintBitsToFloat(0x7f800000u);
   const float kTPrecision = uintBitsToFloat(0x34d6bf95u);  // 4e-7
-  TERRAIN_PRECISE float horizontal =
-      sqrt(direction.x * direction.x + direction.y * direction.y);
-  float global_lambda = fetch_bounds(2u);
-  for (int taken = 0; taken < budget && state.status == kTraceRunning; ++taken) {
-    if (!(state.t <= state.hi && state.steps < s.max_steps)) {
-      state.status = kTraceMissed;
-      break;
-    }
-    ++state.steps;
-    float t = state.t;
-    vec3 p = trace_at(origin, direction, t);
-    TERRAIN_PRECISE float spacing = s.lod_per_metre * t;
-    TERRAIN_PRECISE float h = p.z - evaluate_program(p.xy, spacing).f;
-    // A hit within ε, within half the level-of-detail spacing, or within what float precision
-    // of t can still resolve (sphere_trace.cpp).
-    TERRAIN_PRECISE float half_spacing = 0.5 * spacing;
-    TERRAIN_PRECISE float resolvable = t * kTPrecision * (1.0 + state.last_lambda);
-    float tolerance = max(max(s.epsilon, half_spacing), resolvable);
-    if (h < tolerance) {
-      state.status = kTraceHit;
-      break;
-    }
-    float lambda = global_lambda;
-    float limit = kInfinity;
-    state.last_lambda = lambda;
-    if (s.accelerated) {
-      // Local bound over the candidate segment [t, t + δ] (its horizontal footprint).
-      TERRAIN_PRECISE float ahead = t + state.delta;
-      TERRAIN_PRECISE float far_spacing = s.lod_per_metre * ahead;
-      vec3 q = trace_at(origin, direction, ahead);
-      lambda = trace_bound(min(p.xy, q.xy), max(p.xy, q.xy), spacing, far_spacing);
-      state.last_lambda = lambda;
-      limit = state.delta;
-    }
-    TERRAIN_PRECISE float approach = horizontal * lambda - direction.z;
-    TERRAIN_PRECISE float step = approach > 0.0 ? h / approach : kInfinity;
-    step = min(step, limit);
-    if (isinf(step) || isnan(step)) {  // moving away everywhere: no hit in the domain
-      state.status = kTraceMissed;
-      break;
-    }
-    TERRAIN_PRECISE float next = t + step;
-    state.t = next;
-    TERRAIN_PRECISE float doubled = 2.0 * step;
-    state.delta = max(s.initial_step, doubled);
+  TERRAIN_PRECISE float horizontal = sqrt(direction.x * direction.x + direction.y * direction.y);
+  ++state.steps;
+  float t = state.t;
+  vec3 p = trace_at(origin, direction, t);
+  float spacing = trace_spacing(s, state, t);
+  TERRAIN_PRECISE float h = p.z - f;
+  // A hit within ε, within half the level-of-detail spacing, or within what float precision
+  // of t can still resolve (sphere_trace.cpp).
+  TERRAIN_PRECISE float half_spacing = 0.5 * spacing;
+  TERRAIN_PRECISE float resolvable = t * kTPrecision * (1.0 + state.last_lambda);
+  float tolerance = max(max(s.epsilon, half_spacing), resolvable);
+  if (h < tolerance) {
+    state.status = kTraceHit;
+    return;
   }
+  if (t > 0.0) {
+    TERRAIN_PRECISE float ratio = h / t;
+    state.closest = min(state.closest, ratio);
+  }
+  float lambda = fetch_bounds(2u);  // the global bound
+  float limit = kInfinity;
+  state.last_lambda = lambda;
+  if (s.accelerated) {
+    // Local bound over the candidate segment [t, t + δ] (its horizontal footprint).
+    TERRAIN_PRECISE float ahead = t + state.delta;
+    float far_spacing = trace_spacing(s, state, ahead);
+    vec3 q = trace_at(origin, direction, ahead);
+    lambda = trace_bound(min(p.xy, q.xy), max(p.xy, q.xy), spacing, far_spacing);
+    state.last_lambda = lambda;
+    limit = state.delta;
+  }
+  TERRAIN_PRECISE float approach = horizontal * lambda - direction.z;
+  TERRAIN_PRECISE float step = approach > 0.0 ? h / approach : kInfinity;
+  step = min(step, limit);
+  if (isinf(step) || isnan(step)) {  // moving away everywhere: no hit in the domain
+    state.status = kTraceMissed;
+    return;
+  }
+  TERRAIN_PRECISE float next = t + step;
+  state.t = next;
+  TERRAIN_PRECISE float doubled = 2.0 * step;
+  state.delta = max(s.initial_step, doubled);
 }
 
-vec3 trace_sky(vec3 direction) {
-  TERRAIN_PRECISE float u = direction.z * 2.0 + 0.3;
-  float t = clamp(u, 0.0, 1.0);
-  return colour_mix(vec3(0.80, 0.86, 0.92), vec3(0.33, 0.55, 0.85), t);
-}
+// render()'s constants (sphere_trace.cpp): sky-visibility radius and samples, the shadow ray's
+// lift above the surface in units of the hit's tolerance, and the air's visibility length.
+const float kSkyVisibilityRadius = 0.03;  // of the traced area's larger side
+const int kSkyVisibilitySamples = 4;
+const float kShadowLift = 2.0;
+const float kVisibility = 2.5;  // of the traced area's larger side
 
-vec3 trace_shade(TraceSetup s, Field field, float z) {
+// The colour of a hit (shade() in sphere_trace.cpp): material, sun and sky light, water, air.
+vec3 trace_shade(TraceSetup s, Field field, float z, vec3 direction, float t, float sun_visible,
+                 float sky_visible) {
   vec3 n = trace_normalise(vec3(-field.fx, -field.fy, 1.0));
   TERRAIN_PRECISE float nz2 = n.z * n.z;
   TERRAIN_PRECISE float slope = sqrt(1.0 - min(1.0, nz2));  // sine of the slope angle
@@ -220,33 +244,153 @@ vec3 trace_shade(TraceSetup s, Field field, float z) {
   TERRAIN_PRECISE float above = z - s.water_level;
   float shore = water ? 0.0 : 1.0 - material_ramp(above, 0.0, material_shore_band(s.z_lo, s.z_hi));
   vec3 ground = material_albedo(height, slope, northness, shore, water);
-  float light = material_sun_light(n, s.sun);
-  TERRAIN_PRECISE vec3 colour = vec3(ground.x * light, ground.y * light, ground.z * light);
-  return colour;
+  vec3 colour = lighting_lit_surface(ground, n, s.sun, sun_visible, sky_visible);
+  if (water) colour = lighting_water(colour, direction, s.sun, sun_visible);
+  TERRAIN_PRECISE float visibility = kVisibility * s.span;
+  return lighting_aerial(colour, direction, t, visibility, s.sun);
 }
 
-// The pixel's colour once its trace has ended: sky, or the shaded hit seen through fog.
-TracePixel trace_finish(TraceSetup s, vec3 origin, vec3 direction, TraceState state) {
-  TracePixel out_pixel = TracePixel(trace_sky(direction), -1.0, state.steps);
-  if (state.status == kTraceHit) {
-    // The sample render() shades: the same point and spacing as the step that hit.
-    vec3 p = trace_at(origin, direction, state.t);
-    TERRAIN_PRECISE float spacing = s.lod_per_metre * state.t;
-    vec3 surface = trace_shade(s, evaluate_program(p.xy, spacing), p.z);
-    TERRAIN_PRECISE float scale = 2.5 * s.span;
-    TERRAIN_PRECISE float fog = 1.0 - exp(-state.t / scale);
-    out_pixel.colour = colour_mix(surface, vec3(0.80, 0.86, 0.92), fog);
-    out_pixel.depth = state.t;
+// One pixel's work, resumable: the primary ray, then (where it hit) the sample under the hit,
+// the shadow ray towards the sun (where that surface is sunlit), then the sky-visibility
+// samples. pixel_advance spends at most `budget` evaluations of the program and carries on
+// where it stopped, so that a caller can split a pixel over several dispatches (llvmpipe ends
+// every loop of an invocation after 65 535 iterations in all, counting the interpreter's);
+// splitting changes nothing in the result. Every stage evaluates the program at the same one
+// call site, since each call site inlines the whole interpreter into the shader.
+const int kStagePrimary = 0;
+const int kStageSurface = 1;
+const int kStageShadow = 2;
+const int kStageOcclusion = 3;
+const int kStageDone = 4;
+
+struct PixelTrace {
+  TraceState primary;
+  TraceState shadow;
+  int stage;
+  int samples;        // sky-visibility samples taken
+  float horizon_sum;  // sines of their horizons
+  Field surface;      // the program under the hit, at the hit's spacing
+};
+
+PixelTrace pixel_start(TraceSetup s, vec3 origin, vec3 direction) {
+  const float kInfinity = uintBitsToFloat(0x7f800000u);
+  TraceState skipped = TraceState(0.0, 0.0, 0.0, 0.0, 0, kTraceSkipped, kInfinity, 0.0);
+  Field none = Field(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+  return PixelTrace(trace_start(s, origin, direction), skipped, kStagePrimary, 0, 0.0, none);
+}
+
+// Where the hit's shadow ray starts: just above the surface under it.
+vec3 pixel_shadow_origin(TraceSetup s, vec3 origin, vec3 direction, PixelTrace px) {
+  vec3 p = trace_at(origin, direction, px.primary.t);
+  TERRAIN_PRECISE float spacing = s.lod_per_metre * px.primary.t;
+  TERRAIN_PRECISE float lift = kShadowLift * max(s.epsilon, spacing);
+  TERRAIN_PRECISE float z = px.surface.f + lift;
+  return vec3(p.x, p.y, z);
+}
+
+// terrain::sky_visibility's radius, and its sample i: east, north, west or south of the hit.
+float pixel_sky_radius(TraceSetup s) {
+  TERRAIN_PRECISE float radius = kSkyVisibilityRadius * s.span;
+  return radius;
+}
+
+vec2 pixel_sky_sample(TraceSetup s, vec3 hit, int i) {
+  vec2 d = i == 0 ? vec2(1.0, 0.0) : i == 1 ? vec2(0.0, 1.0) : i == 2 ? vec2(-1.0, 0.0)
+                                                                      : vec2(0.0, -1.0);
+  float r = pixel_sky_radius(s);
+  TERRAIN_PRECISE vec2 q = vec2(hit.x + d.x * r, hit.y + d.y * r);
+  return q;
+}
+
+void pixel_advance(TraceSetup s, vec3 origin, vec3 direction, inout PixelTrace px, int budget) {
+  int left = budget;
+  while (left > 0 && px.stage != kStageDone) {
+    // Moves between stages, which evaluate nothing.
+    if (px.stage == kStagePrimary && !trace_wants_step(s, px.primary)) {
+      px.stage = px.primary.status == kTraceHit ? kStageSurface : kStageDone;
+      continue;
+    }
+    if (px.stage == kStageShadow && !trace_wants_step(s, px.shadow)) {
+      px.stage = kStageOcclusion;
+      continue;
+    }
+    if (px.stage == kStageOcclusion && (!s.occlusion || px.samples == kSkyVisibilitySamples)) {
+      px.stage = kStageDone;
+      continue;
+    }
+    // The point and spacing of this iteration's one evaluation.
+    bool tracing = px.stage == kStagePrimary || px.stage == kStageShadow;
+    bool shadow = px.stage == kStageShadow;
+    vec3 hit = trace_at(origin, direction, px.primary.t);
+    vec3 ray_origin = shadow ? pixel_shadow_origin(s, origin, direction, px) : origin;
+    vec3 ray_direction = shadow ? s.sun : direction;
+    TraceState ray = px.primary;  // (WebGL allows no ?: between structures)
+    if (shadow) ray = px.shadow;
+    vec2 at = hit.xy;
+    float spacing = trace_spacing(s, px.primary, px.primary.t);
+    if (tracing) {
+      at = trace_at(ray_origin, ray_direction, ray.t).xy;
+      spacing = trace_spacing(s, ray, ray.t);
+    } else if (px.stage == kStageOcclusion) {
+      at = pixel_sky_sample(s, hit, px.samples);
+      TERRAIN_PRECISE float quarter = 0.25 * pixel_sky_radius(s);
+      spacing = max(spacing, quarter);
+    }
+    Field field = evaluate_program(at, spacing);
+    --left;
+    if (tracing) {
+      trace_step(s, ray_origin, ray_direction, ray, field.f);
+      if (shadow) {
+        px.shadow = ray;
+      } else {
+        px.primary = ray;
+      }
+    } else if (px.stage == kStageSurface) {
+      px.surface = field;
+      vec3 n = trace_normalise(vec3(-field.fx, -field.fy, 1.0));
+      px.stage = kStageOcclusion;
+      if (s.shadows && lighting_dot(n, s.sun) > 0.0) {
+        px.shadow = trace_start(s, pixel_shadow_origin(s, origin, direction, px), s.sun);
+        px.shadow.lod_offset = px.primary.t;
+        px.stage = kStageShadow;
+      }
+    } else {
+      TERRAIN_PRECISE float above = field.f - px.surface.f;
+      TERRAIN_PRECISE float rise = max(0.0, above / pixel_sky_radius(s));
+      TERRAIN_PRECISE float sine = rise / sqrt(1.0 + rise * rise);  // of the horizon's elevation
+      px.horizon_sum = px.horizon_sum + sine;
+      ++px.samples;
+    }
+  }
+}
+
+// The pixel's colour once its work is done: sky, or the lit hit seen through the air.
+TracePixel pixel_finish(TraceSetup s, vec3 origin, vec3 direction, PixelTrace px) {
+  int steps = px.primary.steps + px.shadow.steps + px.samples;
+  TracePixel out_pixel = TracePixel(lighting_sky(direction, s.sun), -1.0, steps);
+  if (px.primary.status == kTraceHit) {
+    vec3 p = trace_at(origin, direction, px.primary.t);
+    float sun_visible = 1.0;
+    if (px.shadow.status == kTraceHit) {
+      sun_visible = 0.0;
+    } else if (px.shadow.status == kTraceMissed) {
+      sun_visible = lighting_sun_visibility(px.shadow.closest, s.sun);
+    }
+    TERRAIN_PRECISE float sky_visible = s.occlusion ? 1.0 - px.horizon_sum / 4.0 : 1.0;
+    out_pixel.colour =
+        trace_shade(s, px.surface, p.z, direction, px.primary.t, sun_visible, sky_visible);
+    out_pixel.depth = px.primary.t;
   }
   return out_pixel;
 }
 
-// One pixel of terrain::render in one go: the ray through the pixel centre, traced and shaded.
+// One pixel of terrain::render in one go.
 TracePixel trace_pixel(TraceCamera camera, TraceSetup s, vec2 pixel) {
+  const int kUnlimited = 0x7fffffff;
   vec3 direction = trace_ray_direction(camera, pixel);
-  TraceState state = trace_start(s, camera.position, direction);
-  trace_advance(s, camera.position, direction, state, s.max_steps);
-  return trace_finish(s, camera.position, direction, state);
+  PixelTrace px = pixel_start(s, camera.position, direction);
+  pixel_advance(s, camera.position, direction, px, kUnlimited);
+  return pixel_finish(s, camera.position, direction, px);
 }
 
 // to_byte() of sphere_trace.cpp: round(clamp(v, 0, 1) · 255), halves away from zero.

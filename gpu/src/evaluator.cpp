@@ -131,7 +131,7 @@ struct TraceShader {
   GLint program_size = -1, first = -1, count = -1, phase = -1, budget = -1, eye = -1, forward = -1,
         right = -1, up = -1, tan_half = -1, aspect = -1, size = -1, area = -1, elevation = -1,
         epsilon = -1, max_steps = -1, initial_step = -1, lod_per_metre = -1, t_max = -1,
-        accelerated = -1, water_level = -1, span = -1, sun = -1;
+        accelerated = -1, water_level = -1, span = -1, sun = -1, shadows = -1, occlusion = -1;
 };
 
 // A LipschitzGrid uploaded for one (program, area): built on the CPU once, reused by later
@@ -241,11 +241,14 @@ std::pair<int, int> shader_stacks(const terrain::Program& program) {
 }
 
 std::string_view material_glsl() {
-  return glsl::material();
+  static const std::string text =
+      std::string(glsl::material()) + "\n" + std::string(glsl::lighting());
+  return text;
 }
 
 std::string_view trace_glsl() {
-  static const std::string text = std::string(glsl::material()) + "\n" + std::string(glsl::trace());
+  static const std::string text = std::string(glsl::material()) + "\n" +
+                                  std::string(glsl::lighting()) + "\n" + std::string(glsl::trace());
   return text;
 }
 
@@ -695,6 +698,8 @@ terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& p
     s.water_level = at("u_water_level");
     s.span = at("u_span");
     s.sun = at("u_sun");
+    s.shadows = at("u_shadows");
+    s.occlusion = at("u_occlusion");
     found = st.trace_shaders.emplace(uploaded.shader_key, s).first;
   }
   found->second.last_used = ++st.shader_clock;
@@ -708,7 +713,7 @@ terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& p
                  GL_DYNAMIC_READ);
     st.results_bytes = out_bytes;
   }
-  const std::size_t state_bytes = pixels * 8 * sizeof(std::uint32_t);
+  const std::size_t state_bytes = pixels * 24 * sizeof(std::uint32_t);  // a PixelTrace each
   glBindBuffer(GL_SHADER_STORAGE_BUFFER, st.trace_states);
   if (state_bytes > st.trace_states_bytes) {
     glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(state_bytes), nullptr,
@@ -745,6 +750,8 @@ terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& p
   glUniform1f(shader.water_level, options.water_level);
   glUniform1f(shader.span, span);
   glUniform3f(shader.sun, sun.x, sun.y, sun.z);
+  glUniform1i(shader.shadows, options.shadows ? 1 : 0);
+  glUniform1i(shader.occlusion, options.occlusion ? 1 : 0);
 
   // One phase over every pixel, in as many dispatches as the group count limit asks.
   const std::size_t per_dispatch = static_cast<std::size_t>(st.max_groups) * kWorkgroupSize;

@@ -10,6 +10,7 @@ std::string_view noise();
 std::string_view nodes();
 std::string_view interpreter();
 std::string_view material();
+std::string_view lighting();
 std::string_view trace();
 std::string_view compute_prelude();
 std::string_view compute_main();

@@ -7,6 +7,7 @@
 #include <numbers>
 #include <thread>
 
+#include "terrain/lighting.hpp"
 #include "terrain/material.hpp"
 
 namespace terrain {
@@ -136,7 +137,7 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
   while (t <= span.hi && result.steps < options.max_steps) {
     ++result.steps;
     const Vec3 p = at(ray, t);
-    const float spacing = options.lod_per_metre * t;
+    const float spacing = options.lod_per_metre * (options.lod_offset + t);
     const float h = height_above(evaluator, p, spacing);
     // A hit within ε, within half the level-of-detail spacing (the surface is not defined more
     // finely than that), or within what float precision of t can still resolve.
@@ -148,6 +149,7 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
       result.position = p;
       return result;
     }
+    if (t > 0.0f) result.closest = std::min(result.closest, h / t);
     float lambda = global_lambda;
     float limit = std::numeric_limits<float>::infinity();
     last_lambda = lambda;
@@ -155,7 +157,7 @@ TraceResult sphere_trace(Evaluator& evaluator, const TraceDomain& domain, const 
       // Local bound over the candidate segment [t, t + δ] (its horizontal footprint) at the
       // spacings sampled along it.
       const float ahead = t + delta;
-      const float far_spacing = options.lod_per_metre * ahead;
+      const float far_spacing = options.lod_per_metre * (options.lod_offset + ahead);
       const Vec3 q = at(ray, ahead);
       const Box2 box = Box2::of_point({p.x, p.y}).with({q.x, q.y});
       lambda = options.bounds != nullptr
@@ -249,28 +251,54 @@ Camera default_camera(const Program& program, const Box2& area, int width, int h
 
 namespace {
 
-Rgb sky(const Ray& ray) {
-  const float t = std::clamp(ray.direction.z * 2.0f + 0.3f, 0.0f, 1.0f);
-  return mix({0.80f, 0.86f, 0.92f}, {0.33f, 0.55f, 0.85f}, t);
+// Shadow and sky light (docs/client.md#lighting): the sky's scale of sky-visibility samples, and
+// how far above the surface a shadow ray starts, in units of the hit's tolerance.
+constexpr float kSkyVisibilityRadius = 0.03f;  // of the traced area's larger side
+constexpr float kShadowLift = 2.0f;
+// Aerial perspective's visibility length, in units of the traced area's larger side.
+constexpr float kVisibility = 2.5f;
+
+float dot(Vec3 a, Vec3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
-Rgb shade(const FieldSample& s, float z, const Interval& range, float water_level) {
+/// The colour of a hit: material, sun and sky light, water, then the air in front of it.
+Rgb shade(const FieldSample& s, const Ray& ray, float t, float z, const Interval& range,
+          float water_level, float sun_visible, float sky_visible, float span) {
   const Vec3 n = normalise({-s.elevation_gradient.x, -s.elevation_gradient.y, 1.0f});
+  const Vec3 sun = sun_direction();
   MaterialInput input;
   input.slope = std::sqrt(1.0f - std::min(1.0f, n.z * n.z));  // sine of the slope angle
   input.height = range.width() > 0 ? (z - range.lo) / range.width() : 0.5f;
   input.northness = northness(s.elevation_gradient.x, s.elevation_gradient.y);
   input.water = z < water_level;
   input.shore = input.water ? 0.0f : 1.0f - ramp(z - water_level, 0.0f, shore_band_for(range));
-  const Rgb ground = material_albedo(input);
-  const float light = sun_light(n, sun_direction());
-  return {ground.r * light, ground.g * light, ground.b * light};
+  Rgb colour = lit_surface(material_albedo(input), n, sun, sun_visible, sky_visible);
+  if (input.water) colour = water_surface(colour, ray.direction, sun, sun_visible);
+  return aerial_perspective(colour, ray.direction, t, kVisibility * span, sun);
 }
 
 }  // namespace
 
+float sky_visibility(Evaluator& evaluator, Vec3 position, float spacing, float radius) {
+  // Sample i looks east, north, west, south; the GLSL twin takes them in the same order so that
+  // it can stop and resume between them. A horizon `radius` away needs no detail finer than a
+  // quarter of that (and the coarser level of detail costs less).
+  constexpr Vec2 kDirections[kSkyVisibilitySamples] = {
+      {1.0f, 0.0f}, {0.0f, 1.0f}, {-1.0f, 0.0f}, {0.0f, -1.0f}};
+  const float coarse = std::max(spacing, 0.25f * radius);
+  float sum = 0.0f;
+  for (const Vec2 d : kDirections) {
+    const Vec2 q{position.x + d.x * radius, position.y + d.y * radius};
+    const float rise =
+        std::max(0.0f, (evaluator.sample(q, coarse).elevation - position.z) / radius);
+    sum += rise / std::sqrt(1.0f + rise * rise);  // sine of the horizon's elevation
+  }
+  return 1.0f - sum / 4.0f;
+}
+
 Vec3 sun_direction() {
-  return normalise({-0.5f, -0.4f, 0.75f});
+  return normalise({-0.8f, -0.2f, 0.5f});
 }
 
 Picture render(const Program& program, const Box2& area, const Camera& camera,
@@ -296,6 +324,7 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
   const LipschitzGrid bounds(grid_evaluator, area);
   if (trace.accelerated && trace.bounds == nullptr) trace.bounds = &bounds;
   std::atomic<bool> out_of_budget{false};
+  const Vec3 sun = sun_direction();
   auto worker = [&] {
     Evaluator evaluator(program);
     TraceOptions ray_trace = trace;
@@ -317,17 +346,40 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
         }
         const Ray ray = camera.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
         const TraceResult hit = sphere_trace(evaluator, domain, ray, ray_trace);
-        steps += hit.steps;
-        Rgb color = sky(ray);
+        int pixel_steps = hit.steps;
+        Rgb color = sky_radiance(ray.direction, sun);
         const std::size_t at = static_cast<std::size_t>(y * camera.width + x);
         if (hit.hit) {
-          const FieldSample s =
-              evaluator.sample({hit.position.x, hit.position.y}, trace.lod_per_metre * hit.t);
-          const Rgb surface = shade(s, hit.position.z, domain.elevation, options.water_level);
-          const float fog = 1.0f - std::exp(-hit.t / (2.5f * span));
-          color = mix(surface, {0.80f, 0.86f, 0.92f}, fog);
+          const float spacing = trace.lod_per_metre * hit.t;
+          const FieldSample s = evaluator.sample({hit.position.x, hit.position.y}, spacing);
+          const Vec3 n = normalise({-s.elevation_gradient.x, -s.elevation_gradient.y, 1.0f});
+          float sun_visible = 1.0f;
+          if (options.shadows && dot(n, sun) > 0.0f) {
+            // From just above the surface towards the sun, at the level of detail of the light's
+            // whole path from the eye.
+            const float lift = kShadowLift * std::max(trace.epsilon, spacing);
+            const Ray towards_sun{{hit.position.x, hit.position.y, s.elevation + lift}, sun};
+            TraceOptions shadow_trace = ray_trace;
+            shadow_trace.lod_offset = hit.t;
+            if (options.step_budget > 0) {
+              shadow_trace.max_steps = static_cast<int>(std::clamp<std::int64_t>(
+                  ray_trace.max_steps - static_cast<std::int64_t>(hit.steps), 0, trace.max_steps));
+            }
+            const TraceResult shadow = sphere_trace(evaluator, domain, towards_sun, shadow_trace);
+            pixel_steps += shadow.steps;
+            sun_visible = shadow.hit ? 0.0f : sun_visibility(shadow.closest, sun);
+          }
+          float sky_visible = 1.0f;
+          if (options.occlusion) {
+            sky_visible = sky_visibility(evaluator, {hit.position.x, hit.position.y, s.elevation},
+                                         spacing, kSkyVisibilityRadius * span);
+            pixel_steps += kSkyVisibilitySamples;
+          }
+          color = shade(s, ray, hit.t, hit.position.z, domain.elevation, options.water_level,
+                        sun_visible, sky_visible, span);
           picture.depth[at] = hit.t;
         }
+        steps += pixel_steps;
         picture.rgb[at * 3 + 0] = colour_byte(color.r);
         picture.rgb[at * 3 + 1] = colour_byte(color.g);
         picture.rgb[at * 3 + 2] = colour_byte(color.b);

@@ -154,6 +154,39 @@ TEST(GpuPicture, UsesTheCallersLipschitzGridAndPlainTracing) {
   }
 }
 
+// Shadows and sky occlusion each switched off reach the shader: the GPU's colours and step counts
+// follow the CPU's, which change with them.
+TEST(GpuPicture, HonoursTheLightingOptions) {
+  const Loaded loaded = load(std::string(TERRAIN_SOURCE_DIR) + "/config/scenes/butte.json");
+  const terrain::Box2 area = loaded.scene.area();
+  const terrain::Camera camera = terrain::default_camera(loaded.program, area, 48, 30);
+  std::vector<std::int64_t> steps;
+  for (const auto& [shadows, occlusion] : {std::pair{true, true}, std::pair{false, true},
+                                           std::pair{true, false}, std::pair{false, false}}) {
+    terrain::RenderOptions options;
+    options.threads = 1;
+    options.shadows = shadows;
+    options.occlusion = occlusion;
+    const terrain::Picture cpu = terrain::render(loaded.program, area, camera, options);
+    terrain::Result<terrain::Picture> gpu = tracer().render(loaded.program, area, camera, options);
+    ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+    std::size_t same = 0;
+    for (std::size_t i = 0; i < cpu.rgb.size(); ++i) {
+      if (std::abs(int{cpu.rgb[i]} - int{gpu->rgb[i]}) <= kColourTolerance) ++same;
+    }
+    EXPECT_GE(static_cast<double>(same), kAgreeingShare * static_cast<double>(cpu.rgb.size()))
+        << "shadows " << shadows << ", occlusion " << occlusion;
+    EXPECT_EQ(gpu->total_steps, cpu.total_steps)
+        << "shadows " << shadows << ", occlusion " << occlusion;
+    steps.push_back(cpu.total_steps);
+  }
+  // Each option changes the work: shadow rays and sky samples are steps of their own.
+  EXPECT_GT(steps[0], steps[1]);
+  EXPECT_GT(steps[0], steps[2]);
+  EXPECT_GT(steps[1], steps[3]);
+  EXPECT_GT(steps[2], steps[3]);
+}
+
 TEST(GpuPicture, IsRefusedForAnEmptyPicture) {
   const Loaded loaded = load(std::string(TERRAIN_SOURCE_DIR) + "/config/scenes/craters.json");
   terrain::Camera camera = terrain::default_camera(loaded.program, loaded.scene.area(), 16, 16);
@@ -261,7 +294,8 @@ void main() {
   TraceCamera camera = TraceCamera(u_eye, vec3(0.0, 1.0, 0.0), vec3(1.0, 0.0, 0.0),
                                    vec3(0.0, 0.0, 1.0), 0.5, 1.5, vec2(640.0, 400.0));
   TraceSetup setup = TraceSetup(vec2(-1000.0), vec2(1000.0), 0.0, 500.0, 0.01, 4096, 10.0,
-                                0.001, 1e5, true, -1e9, 2000.0, vec3(0.0, 0.0, 1.0));
+                                0.001, 1e5, true, -1e9, 2000.0, vec3(0.0, 0.0, 1.0), true,
+                                true);
   TracePixel p = trace_pixel(camera, setup, gl_FragCoord.xy);
   colour = vec4(p.colour, 1.0);
 }

@@ -108,11 +108,12 @@ std::vector<float> prepare_pool(const terrain::Program& program);
 /// The GLSL sources shared with the browser, in the order they are concatenated (after a
 /// backend prelude): portable_math.glsl, noise.glsl, nodes.glsl, interpreter.glsl.
 std::string_view shared_glsl();
-/// The material model (material.glsl) and the sphere tracer (trace.glsl) that shades with it,
-/// concatenated after shared_glsl(); besides the prelude's
+/// The material model (material.glsl), light and air (lighting.glsl) and the sphere tracer
+/// (trace.glsl) that shades with them, concatenated after shared_glsl(); besides the prelude's
 /// program access it needs fetch_bounds(i) over terrain::LipschitzGrid::pack().
 std::string_view trace_glsl();
-/// The material model alone (material.glsl: terrain/material.hpp's twin), for shaders that
+/// The material model and its lighting (material.glsl and lighting.glsl: the twins of
+/// terrain/material.hpp and terrain/lighting.hpp), for shaders that
 /// colour terrain without tracing it (the browser's planet mode).
 std::string_view material_glsl();
 /// The field- and frame-stack sizes (TERRAIN_MAX_FIELDS, TERRAIN_MAX_FRAMES) that a shader

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "terrain/evaluate.hpp"
@@ -51,6 +52,9 @@ struct TraceOptions {
   int max_steps = 1 << 16;
   float initial_step = 10.0f;  ///< δ of the accelerated algorithm, metres
   float lod_per_metre = 0.0f;  ///< sample spacing grows by this much per metre of distance
+  /// Metres the light travelled before the ray's origin (a shadow ray's primary hit distance):
+  /// the spacing at ray parameter t is lod_per_metre · (lod_offset + t).
+  float lod_offset = 0.0f;
   float t_max = 1e7f;
   const LipschitzGrid* bounds = nullptr;  ///< precomputed local bounds (else the program is walked)
 };
@@ -60,6 +64,9 @@ struct TraceResult {
   float t = 0.0f;
   Vec3 position;
   int steps = 0;
+  /// The least height over distance h/t the ray kept above the terrain at its steps (t > 0):
+  /// how narrowly a ray that escaped missed (soft shadows).
+  float closest = std::numeric_limits<float>::infinity();
 };
 
 /// The region traced: the ray's parameter interval inside `area` × [lowest, highest elevation].
@@ -102,7 +109,16 @@ float pixel_footprint(const Camera& camera);
 /// The unit direction towards the sun in render()'s shading (GPU tracers take it from here).
 Vec3 sun_direction();
 
-/// A shaded picture: sky, fog, height/slope materials, sun light from exact gradients.
+/// The share of the sky a point at `position` on the surface sees, 0..1 (horizon-based ambient
+/// occlusion): 1 − the mean sine of the horizon's elevation over the four axis directions,
+/// each horizon the rise to the surface `radius` away, sampled at `spacing` or a quarter of the
+/// radius, whichever is coarser. Costs kSkyVisibilitySamples evaluations; gpu/glsl/trace.glsl
+/// repeats it.
+float sky_visibility(Evaluator& evaluator, Vec3 position, float spacing, float radius);
+inline constexpr int kSkyVisibilitySamples = 4;
+
+/// A shaded picture: an analytic sky, aerial perspective, the material model, sun light from
+/// exact gradients with soft shadows traced towards the sun, and sky light with occlusion.
 struct Picture {
   int width = 0;
   int height = 0;
@@ -116,10 +132,13 @@ struct Picture {
 struct RenderOptions {
   TraceOptions trace;
   float water_level = -1e9f;  ///< draw water below this elevation
+  bool shadows = true;        ///< trace a shadow ray towards the sun from every sunlit hit
+  bool occlusion = true;      ///< measure the sky each hit sees (sky_visibility)
   int threads = 0;
   /// Called with the fraction done (0..1) from the calling thread; may be empty.
   std::function<void(float)> progress;
-  /// At most this many sphere-tracing steps for the whole picture (0: no limit). A server's
+  /// At most this many sphere-tracing steps for the whole picture (0: no limit; shadow rays'
+  /// steps and sky samples count too). A server's
   /// cost limit becomes a bound on the work, whatever the camera and the terrain's bounds.
   std::int64_t step_budget = 0;
   /// When set and true, the picture stops at the next pixel (its client has gone).

@@ -25,7 +25,8 @@ namespace terrain {
 /// different bytes. The product goldens (tests/terrain/goldens, tests/planet/goldens) refuse new
 /// hashes under an old generation. 2: erosion routes by Rho8 and sub-steps its diffusion. 3: the
 /// material model's forest, scree, aspect-dependent snow line and shores (pictures, colour tiles).
-inline constexpr int kProductGeneration = 3;
+/// 4: pictures' soft shadows, sky occlusion, Rayleigh–Mie sky, aerial perspective and water.
+inline constexpr int kProductGeneration = 4;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
