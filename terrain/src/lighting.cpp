@@ -20,10 +20,6 @@ constexpr Rgb kSkyLight{0.27f, 0.30f, 0.36f};
 constexpr Rgb kGlint{1.0f, 0.95f, 0.85f};
 constexpr float kPenumbra = 0.04f;  // radians of the shadow's soft edge
 
-float dot(Vec3 a, Vec3 b) {
-  return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-
 // The sky towards a direction that rises `rise` (sine of its elevation) and makes cosine
 // `towards_sun` with the sun.
 Rgb sky_at(float rise, float towards_sun) {
@@ -41,6 +37,10 @@ Rgb sky_at(float rise, float towards_sun) {
 }
 
 }  // namespace
+
+float dot(Vec3 a, Vec3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 
 Rgb sky_radiance(Vec3 direction, Vec3 sun) {
   return sky_at(direction.z, dot(direction, sun));

@@ -258,15 +258,11 @@ constexpr float kShadowLift = 2.0f;
 // Aerial perspective's visibility length, in units of the traced area's larger side.
 constexpr float kVisibility = 2.5f;
 
-float dot(Vec3 a, Vec3 b) {
-  return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-
-/// The colour of a hit: material, sun and sky light, water, then the air in front of it.
-Rgb shade(const FieldSample& s, const Ray& ray, float t, float z, const Interval& range,
-          float water_level, float sun_visible, float sky_visible, float span) {
-  const Vec3 n = normalise({-s.elevation_gradient.x, -s.elevation_gradient.y, 1.0f});
-  const Vec3 sun = sun_direction();
+/// The colour of a hit with unit normal `n`: material, sun and sky light, water, then the air in
+/// front of it.
+Rgb shade(const FieldSample& s, Vec3 n, Vec3 sun, const Ray& ray, float t, float z,
+          const Interval& range, float water_level, float sun_visible, float sky_visible,
+          float span) {
   MaterialInput input;
   input.slope = std::sqrt(1.0f - std::min(1.0f, n.z * n.z));  // sine of the slope angle
   input.height = range.width() > 0 ? (z - range.lo) / range.width() : 0.5f;
@@ -375,8 +371,8 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
                                          spacing, kSkyVisibilityRadius * span);
             pixel_steps += kSkyVisibilitySamples;
           }
-          color = shade(s, ray, hit.t, hit.position.z, domain.elevation, options.water_level,
-                        sun_visible, sky_visible, span);
+          color = shade(s, n, sun, ray, hit.t, hit.position.z, domain.elevation,
+                        options.water_level, sun_visible, sky_visible, span);
           picture.depth[at] = hit.t;
         }
         steps += pixel_steps;

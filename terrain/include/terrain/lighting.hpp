@@ -9,6 +9,9 @@
 
 namespace terrain {
 
+/// a · b, summed x, y, z in that order (what the GLSL twin, lighting_dot, writes out too).
+float dot(Vec3 a, Vec3 b);
+
 /// The sky's radiance towards unit direction `direction` with the sun in unit direction `sun`:
 /// Rayleigh scattering (∝ λ⁻⁴, so the zenith is blue and the long air path at the horizon
 /// whitens) and a Mie forward lobe (Henyey–Greenstein, g = 0.8) around the sun, each weighted by
