@@ -105,6 +105,7 @@ void BM_TracedPicture(benchmark::State& state, const char* name, bool lit) {
   options.threads = 1;
   options.shadows = lit;
   options.occlusion = lit;
+  options.material = l.scene.material;
   std::int64_t steps = 0;
   for (auto _ : state) {
     const Picture picture = render(l.program, l.scene.area(), camera, options);

@@ -278,6 +278,7 @@ int cmd_render(const Args& args) {
   options.trace.accelerated = !args.has("--plain");
   options.shadows = !args.has("--no-shadows");
   options.occlusion = !args.has("--no-occlusion");
+  options.material = scene.material;
   if (args.has("--water"))
     options.water_level = static_cast<float>(parse_number(args.get("--water", "0")).value_or(-1e9));
   options.progress = progress_bar;

@@ -70,7 +70,8 @@ uniform sampler2D u_mask;     // the tile's water mask (R8), used when u_water <
 uniform float u_water;        // the one-byte mask's value 0..1, or -1
 uniform vec3 u_sun;
 uniform float u_sea_level;
-uniform float u_snow_line;    // metres above the sea: the top of the material's relief (height 1)
+uniform vec2 u_relief;       // the heights the material's relief runs between (0 and 1), metres
+uniform float u_shore_band;  // metres of beach above the sea
 uniform float u_log_depth;    // 2 / log2(far + 1)
 uniform float u_fog_scale;
 ${ATMOSPHERE_GLSL}
@@ -86,24 +87,25 @@ void main() {
   vec3 view = v_rel / distance;
   float water = u_water >= 0.0 ? u_water : texture(u_mask, vec2(v_uv.x, 1.0 - v_uv.y)).r;
   if (v_height < u_sea_level - 1.0) water = 1.0;  // below the sea's surface, whatever the mask
-  // Land: the material model, as colour tiles of planets take it: height from sea level to the
-  // relief's top, the slope, which way it faces (north along the axis, ECEF z), beaches in the
-  // 15 m above the sea.
+  // Land: the material model, as colour tiles of planets take it: height within the relief of
+  // the colour tiles, the slope, which way it faces (poleward along the axis, ECEF z), beaches
+  // in the shore band above the sea, the snow line lower towards the poles.
   float along = max(dot(n, up), 1e-3);  // overhanging normals count as vertical
   float slope = sqrt(1.0 - min(1.0, along * along));
-  float height = (v_height - u_sea_level) / u_snow_line;
+  float height = (v_height - u_relief.x) / (u_relief.y - u_relief.x);
   vec3 north = normalize(vec3(0.0, 0.0, 1.0) - up * up.z + vec3(1e-9, 0.0, 0.0));
   vec3 east = cross(north, up);
   float facing = material_northness(-dot(n, east) / along, -dot(n, north) / along);
-  float shore = 1.0 - material_ramp(v_height - u_sea_level, 0.0, 15.0);
-  vec3 ground = material_albedo(height, slope, facing, shore, false);
+  if (up.z < 0.0) facing = -facing;  // south of the equator the pole lies south
+  float shore = 1.0 - material_ramp(v_height - u_sea_level, 0.0, u_shore_band);
+  vec3 ground = material_albedo(height, slope, facing, shore, false, abs(up.z));
   // The sky's light fades through twilight into the night side.
   float daylight = smoothstep(-0.1, 0.2, dot(up, u_sun));
   vec3 land = lighting_lit_surface(ground, n, u_sun, 1.0, daylight);
   // Water: deeper is darker; its surface mirrors the sky and the sun in the local frame (east,
   // north, up), where lighting_water expects them.
   float depth = clamp((u_sea_level - v_height) / 3000.0, 0.0, 1.0);
-  vec3 sea = mix(vec3(0.12, 0.30, 0.45), vec3(0.05, 0.16, 0.32), depth);
+  vec3 sea = mix(material_colour(MATERIAL_WATER), vec3(0.05, 0.16, 0.32), depth);
   sea = lighting_lit_surface(sea, up, u_sun, 1.0, daylight);
   vec3 local_view = vec3(dot(view, east), dot(view, north), dot(view, up));
   vec3 local_sun = vec3(dot(u_sun, east), dot(u_sun, north), dot(u_sun, up));

@@ -43,10 +43,11 @@ export class PlanetView {
   /// Fetches the planet's definition and layer.json; throws an ApiError that names the planet
   /// when it does not exist.
   static async open(gl, id) {
-    let definition, layer, material;
+    let definition, layer, material, colours;
     try {
       definition = await fetchJson(`/api/v1/planets/${encodeURIComponent(id)}`);
       layer = await fetchJson(`/api/v1/planets/${encodeURIComponent(id)}/layer.json`);
+      colours = await fetchJson(`/api/v1/planets/${encodeURIComponent(id)}/material.json`);
       material = await fetchText('/api/v1/glsl/material.glsl');
     } catch (e) {
       if (e instanceof ApiError && (e.status === 404 || e.status === 400)) {
@@ -57,13 +58,15 @@ export class PlanetView {
     if (!gl.getExtension('EXT_color_buffer_float')) {
       throw new Error('This browser cannot render to float textures (EXT_color_buffer_float), which the viewer needs.');
     }
-    return new PlanetView(gl, id, definition, layer, material);
+    return new PlanetView(gl, id, definition, layer, material, colours);
   }
 
   /// `material`: the server's material model (GET /api/v1/glsl/material.glsl), which colours land
-  /// here as it does scene pictures and colour tiles.
-  constructor(gl, id, definition, layer, material) {
+  /// here as it does scene pictures and colour tiles; `colours`: the planet's parameters for it
+  /// (GET …/material.json: the packed material, the relief and the shore band of its colour tiles).
+  constructor(gl, id, definition, layer, material, colours) {
     this.gl = gl;
+    this.colours = colours;
     this.id = id;
     this.definition = definition;
     this.geodesy = new Geodesy(definition.radius, definition.flattening ?? 0);
@@ -551,7 +554,9 @@ export class PlanetView {
     const sunLength = len(sun);
     gl.uniform3fv(u.u_sun, sun.map((v) => v / sunLength));
     gl.uniform1f(u.u_sea_level, this.seaLevel);
-    gl.uniform1f(u.u_snow_line, this.maxHeight * 0.75);
+    gl.uniform2fv(u.u_relief, this.colours.relief);
+    gl.uniform1f(u.u_shore_band, this.colours.shore_band);
+    gl.uniform1fv(u['u_material[0]'], new Float32Array(this.colours.material));
     gl.uniform1f(u.u_log_depth, 2 / Math.log2(far + 1));
     gl.uniform1f(u.u_fog_scale, FOG_SCALE);
     gl.uniform1i(u.u_mask, 0);

@@ -288,6 +288,8 @@ export class SceneView {
     gl.uniform1f(u.u_water_level, b.water_level);
     gl.uniform1f(u.u_span, b.span);
     gl.uniform3fv(u.u_sun, b.sun);
+    // The scene's material, packed by the server as its tracers read it (terrain::pack_material).
+    gl.uniform1fv(u['u_material[0]'], new Float32Array(this.bundle.material));
     gl.bindVertexArray(this.vao);
     gl.drawArrays(gl.TRIANGLES, 0, 3);
     gl.bindVertexArray(null);

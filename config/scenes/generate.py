@@ -226,6 +226,10 @@ def mesa_image():
         "name": "A butte from a heightfield image, sand ripples by level of detail (Génevaux Figs. 8, 16)",
         "seed": 8, "extent": {"min": [-2000, -2000], "max": [2000, 2000]},
         "georeference": {"latitude": 36.9980, "longitude": -110.0985, "heading": 0},
+        # Monument Valley's colours (docs/material.md): red sand and sandstone, no trees, no snow.
+        "material": {"grass": "#c8956a", "forest": "#bd8159", "meadow": "#b06f48",
+                     "bare_ground": "#a45c38", "scree": "#c28a60", "rock": "#8e4a2d",
+                     "sand": "#d8b48a", "snow_line": 2},
         "root": {"type": "add", "children": [
             {"type": "replace", "weight": "keep", "children": [desert, butte]}, ripples]}})
 

@@ -34,32 +34,39 @@ float material_shore_band(float z_lo, float z_hi) {
   return max(band, 1.0);
 }
 
-// terrain::material_albedo: height 0..1 within the relief, slope the sine of its angle,
-// northness 1 facing north, shore 1 at a water's edge.
-vec3 material_albedo(float height, float slope, float northness, float shore, bool water) {
-  if (water) return vec3(0.12, 0.30, 0.45);
-  vec3 ground = colour_mix(vec3(0.36, 0.49, 0.22), vec3(0.17, 0.31, 0.13),
-                           material_ramp(height, 0.12, 0.30));
-  ground = colour_mix(ground, vec3(0.48, 0.52, 0.31), material_ramp(height, 0.48, 0.60));
-  ground = colour_mix(ground, vec3(0.55, 0.50, 0.40), material_ramp(height, 0.68, 0.85));
-  TERRAIN_PRECISE float scree =
-      material_ramp(slope, 0.45, 0.60) * material_ramp(height, 0.45, 0.65);
-  ground = colour_mix(ground, vec3(0.60, 0.58, 0.54), scree);
-  ground = colour_mix(ground, vec3(0.42, 0.40, 0.38), material_ramp(slope, 0.62, 0.82));
-  TERRAIN_PRECISE float line = 0.80 - 0.10 * northness;
-  TERRAIN_PRECISE float top = line + 0.08;
-  TERRAIN_PRECISE float snow =
-      material_ramp(height, line, top) * (1.0 - material_ramp(slope, 0.50, 0.70));
-  ground = colour_mix(ground, vec3(0.95, 0.96, 0.98), snow);
-  TERRAIN_PRECISE float sand = shore * (1.0 - material_ramp(slope, 0.25, 0.45));
-  ground = colour_mix(ground, vec3(0.80, 0.74, 0.56), sand);
-  return ground;
+// A colour and a band of the packed material (u_material, declared with the offsets before this
+// file: terrain::material_glsl_declarations).
+vec3 material_colour(int at) {
+  return vec3(u_material[at], u_material[at + 1], u_material[at + 2]);
+}
+float material_band(float x, int at) {
+  return material_ramp(x, u_material[at], u_material[at + 1]);
 }
 
-// terrain::sun_light: ambient 0.30 plus 0.75 of the sun's cosine.
-float material_sun_light(vec3 n, vec3 sun) {
-  TERRAIN_PRECISE float lit = n.x * sun.x + n.y * sun.y + n.z * sun.z;
-  float diffuse = max(0.0, lit);
-  TERRAIN_PRECISE float light = 0.30 + 0.75 * diffuse;
-  return light;
+// terrain::material_albedo: height 0..1 within the relief, slope the sine of its angle,
+// northness 1 facing the pole, shore 1 at a water's edge, polar |sin latitude| (planets).
+vec3 material_albedo(float height, float slope, float northness, float shore, bool water,
+                     float polar) {
+  if (water) return material_colour(MATERIAL_WATER);
+  vec3 ground = colour_mix(material_colour(MATERIAL_GRASS), material_colour(MATERIAL_FOREST),
+                           material_band(height, MATERIAL_FOREST_HEIGHT));
+  ground = colour_mix(ground, material_colour(MATERIAL_MEADOW),
+                      material_band(height, MATERIAL_TREE_LINE));
+  ground = colour_mix(ground, material_colour(MATERIAL_BARE_GROUND),
+                      material_band(height, MATERIAL_BARE_GROUND_HEIGHT));
+  TERRAIN_PRECISE float scree = material_band(slope, MATERIAL_SCREE_SLOPE) *
+                                material_band(height, MATERIAL_SCREE_HEIGHT);
+  ground = colour_mix(ground, material_colour(MATERIAL_SCREE), scree);
+  ground = colour_mix(ground, material_colour(MATERIAL_ROCK),
+                      material_band(slope, MATERIAL_ROCK_SLOPE));
+  TERRAIN_PRECISE float line = u_material[MATERIAL_SNOW_LINE] -
+                               u_material[MATERIAL_SNOW_ASPECT] * northness -
+                               u_material[MATERIAL_SNOW_POLAR] * polar;
+  TERRAIN_PRECISE float top = line + u_material[MATERIAL_SNOW_BLEND];
+  TERRAIN_PRECISE float snow =
+      material_ramp(height, line, top) * (1.0 - material_band(slope, MATERIAL_SNOW_SLOPE));
+  ground = colour_mix(ground, material_colour(MATERIAL_SNOW), snow);
+  TERRAIN_PRECISE float sand = shore * (1.0 - material_band(slope, MATERIAL_SAND_SLOPE));
+  ground = colour_mix(ground, material_colour(MATERIAL_SAND), sand);
+  return ground;
 }

@@ -243,7 +243,7 @@ vec3 trace_shade(TraceSetup s, Field field, float z, vec3 direction, float t, fl
   bool water = z < s.water_level;
   TERRAIN_PRECISE float above = z - s.water_level;
   float shore = water ? 0.0 : 1.0 - material_ramp(above, 0.0, material_shore_band(s.z_lo, s.z_hi));
-  vec3 ground = material_albedo(height, slope, northness, shore, water);
+  vec3 ground = material_albedo(height, slope, northness, shore, water, 0.0);
   vec3 colour = lighting_lit_surface(ground, n, s.sun, sun_visible, sky_visible);
   if (water) colour = lighting_water(colour, direction, s.sun, sun_visible);
   TERRAIN_PRECISE float visibility = kVisibility * s.span;

@@ -16,6 +16,7 @@
 #include "glsl_sources.hpp"
 #include "gpu/program_glsl.hpp"
 #include "terrain/fractal_layout.hpp"
+#include "terrain/material.hpp"
 #include "terrain/node.hpp"
 #include "terrain/sphere_trace.hpp"
 
@@ -131,7 +132,8 @@ struct TraceShader {
   GLint program_size = -1, first = -1, count = -1, phase = -1, budget = -1, eye = -1, forward = -1,
         right = -1, up = -1, tan_half = -1, aspect = -1, size = -1, area = -1, elevation = -1,
         epsilon = -1, max_steps = -1, initial_step = -1, lod_per_metre = -1, t_max = -1,
-        accelerated = -1, water_level = -1, span = -1, sun = -1, shadows = -1, occlusion = -1;
+        accelerated = -1, water_level = -1, span = -1, sun = -1, shadows = -1, occlusion = -1,
+        material = -1;
 };
 
 // A LipschitzGrid uploaded for one (program, area): built on the CPU once, reused by later
@@ -241,14 +243,14 @@ std::pair<int, int> shader_stacks(const terrain::Program& program) {
 }
 
 std::string_view material_glsl() {
-  static const std::string text =
-      std::string(glsl::material()) + "\n" + std::string(glsl::lighting());
+  static const std::string text = terrain::material_glsl_declarations() +
+                                  std::string(glsl::material()) + "\n" +
+                                  std::string(glsl::lighting());
   return text;
 }
 
 std::string_view trace_glsl() {
-  static const std::string text = std::string(glsl::material()) + "\n" +
-                                  std::string(glsl::lighting()) + "\n" + std::string(glsl::trace());
+  static const std::string text = std::string(material_glsl()) + "\n" + std::string(glsl::trace());
   return text;
 }
 
@@ -700,6 +702,7 @@ terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& p
     s.sun = at("u_sun");
     s.shadows = at("u_shadows");
     s.occlusion = at("u_occlusion");
+    s.material = at("u_material");
     found = st.trace_shaders.emplace(uploaded.shader_key, s).first;
   }
   found->second.last_used = ++st.shader_clock;
@@ -752,6 +755,8 @@ terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& p
   glUniform3f(shader.sun, sun.x, sun.y, sun.z);
   glUniform1i(shader.shadows, options.shadows ? 1 : 0);
   glUniform1i(shader.occlusion, options.occlusion ? 1 : 0);
+  const terrain::PackedMaterial material = terrain::pack_material(options.material);
+  glUniform1fv(shader.material, static_cast<GLsizei>(material.size()), material.data());
 
   // One phase over every pixel, in as many dispatches as the group count limit asks.
   const std::size_t per_dispatch = static_cast<std::size_t>(st.max_groups) * kWorkgroupSize;

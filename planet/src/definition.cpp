@@ -151,6 +151,12 @@ Result<PlanetDefinition> parse_planet(const nlohmann::json& document) {
       d.continent_map = value.get<std::string>();
       continue;
     }
+    if (key == "material") {
+      Result<terrain::Material> material = terrain::parse_material(value, pointer);
+      if (!material) return material.error();
+      d.material = *material;
+      continue;
+    }
     if (key == "detail") {
       if (!value.is_object()) return Error{"must be an object", pointer};
       for (auto jt = value.begin(); jt != value.end(); ++jt) {
@@ -216,6 +222,9 @@ nlohmann::json canonical_json(const PlanetDefinition& d) {
   for (const DetailField& f : detail_fields()) detail[f.name] = d.detail.*(f.member);
   out["detail"] = std::move(detail);
   if (!d.continent_map.empty()) out["continent_map"] = d.continent_map;
+  if (!terrain::same_material(d.material, terrain::Material{})) {
+    out["material"] = terrain::material_json(d.material);
+  }
   return out;
 }
 

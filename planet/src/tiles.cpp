@@ -51,17 +51,18 @@ int PlanetTiles::max_zoom() {
   return terrain::max_zoom(TileScheme::geographic);
 }
 
-terrain::ProductConstants PlanetTiles::constants_at(int z) const {
+terrain::ProductConstants PlanetTiles::constants_for(const Planet& planet, int z) {
   terrain::ProductConstants c;
-  const terrain::Interval range = planet().elevation_range();
+  const terrain::Interval range = planet.elevation_range();
   c.gray16 = terrain::gray16_encoding_for(range);
   // Colours measure the relief from sea level: the lowlands of every continent are green.
   c.relief = {0.0f, std::max(range.hi, 1.0f)};
   c.shore_band = 15.0f;  // metres of beach above the sea
+  c.material = planet.definition().material;
   const double span = static_cast<double>(range.hi) - range.lo;
   c.edge_quantum = terrain::edge_quantum_for(range.lo, range.hi);
   c.position_quantum = terrain::position_quantum_for(
-      std::numbers::pi * planet().definition().radius / std::ldexp(1.0, z), span);
+      std::numbers::pi * planet.definition().radius / std::ldexp(1.0, z), span);
   c.max_useful_zoom[static_cast<int>(TileScheme::geographic)] = max_zoom();
   c.max_useful_zoom[static_cast<int>(TileScheme::webmercator)] =
       terrain::max_zoom(TileScheme::webmercator);
@@ -265,6 +266,14 @@ Result<terrain::Product> PlanetTiles::make(TileScheme scheme, const TileAddress&
   if (!tile) return tile.error();
   for (std::uint8_t w : wet) {
     extras.water_surface.push_back(w != 0 ? std::numeric_limits<float>::infinity() : 0.0f);
+  }
+  if (color) {
+    // Each row's latitude (its scene_y is radius × latitude) lowers the snow line poleward.
+    const double radius = planet().definition().radius;
+    for (int row = 0; row < tile->height; ++row) {
+      const double latitude = tile->scene_y[static_cast<std::size_t>(row * tile->width)] / radius;
+      extras.polar.push_back(static_cast<float>(std::sin(latitude)));
+    }
   }
   if (format == TileFormat::quantized_mesh) {
     if (options.watermask) {

@@ -77,6 +77,7 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
   }
   terrain::RenderOptions options;
   options.threads = 1;  // the generation pool provides the parallelism
+  options.material = loaded.scene->material;
   if (const std::string w = target.get("water"); !w.empty()) {
     const auto v = parse_double(w);
     if (!v || std::abs(*v) > 1e5) return bad("/water", "water must be an elevation in metres");
@@ -211,6 +212,7 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
   const std::string hash = loaded.version.hash;
   const std::string author = loaded.version.author;
   const std::int64_t created_ms = loaded.version.created_ms;
+  const terrain::Material scene_material = loaded.scene->material;
   job.cost = static_cast<double>(loaded.source->terrain->code.size()) * 64.0 * 64.0 * 5.0;
   job.metric = "trace_bundle";
   job.make = [=, source = loaded.source](
@@ -255,6 +257,9 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
                 {"target", {camera.target.x, camera.target.y, camera.target.z}},
                 {"fov", camera.vertical_fov_degrees}}}};
     if (program_glsl) body["program_glsl"] = *program_glsl;
+    // The scene's material as the tracer's uniform u_material reads it (terrain::pack_material).
+    const terrain::PackedMaterial material = terrain::pack_material(scene_material);
+    body["material"] = std::vector<float>(material.begin(), material.end());
     body["glsl_defines"] = gpu::node_type_defines(program);
     body["unroll_pays"] = gpu::unroll_pays(program);
     CachedProduct bytes;

@@ -299,6 +299,16 @@ Outcome App::planet_product(const Request& request, const std::string& ref,
     options.tiles = {base + "/mesh/{z}/{x}/{y}.terrain"};
     return finish_json(planet::PlanetTiles::layer_json(options));
   }
+  if (rest.size() == 1 && rest[0] == "material.json") {
+    // What the viewer's planet mode colours land and sea with, as colour tiles do: the material
+    // packed as its evaluators read it (terrain::pack_material), the relief its heights are
+    // fractions of, and the beach above the sea.
+    const terrain::ProductConstants constants = planet::PlanetTiles::constants_for(*world, 0);
+    const terrain::PackedMaterial packed = terrain::pack_material(constants.material);
+    return finish_json(json{{"material", std::vector<float>(packed.begin(), packed.end())},
+                            {"relief", {constants.relief.lo, constants.relief.hi}},
+                            {"shore_band", constants.shore_band}});
+  }
   if (rest.size() == 1 && rest[0] == "tilejson.json") {
     const std::string scheme = target.get("scheme", "geographic");
     if (scheme != "geographic" && scheme != "webmercator") {

@@ -177,6 +177,8 @@ const std::vector<App::Route>& App::routes() {
          &App::planet_route},
         {get, "/api/v1/planets/{ref}/layer.json", "planet_layer.json", Body::none, false,
          &App::planet_route},
+        {get, "/api/v1/planets/{ref}/material.json", "planet_material.json", Body::none, false,
+         &App::planet_route},
         {get, "/api/v1/planets/{ref}/{...}", "planet", Body::none, false, &App::planet_route},
     };
     for (Route& route : table) route.parts = split_path(route.pattern);

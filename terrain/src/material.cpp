@@ -5,20 +5,6 @@
 
 namespace terrain {
 
-namespace {
-
-constexpr Rgb kGrass{0.36f, 0.49f, 0.22f};
-constexpr Rgb kForest{0.17f, 0.31f, 0.13f};
-constexpr Rgb kMeadow{0.48f, 0.52f, 0.31f};
-constexpr Rgb kBareGround{0.55f, 0.50f, 0.40f};
-constexpr Rgb kScree{0.60f, 0.58f, 0.54f};
-constexpr Rgb kRock{0.42f, 0.40f, 0.38f};
-constexpr Rgb kSnow{0.95f, 0.96f, 0.98f};
-constexpr Rgb kSand{0.80f, 0.74f, 0.56f};
-constexpr Rgb kWater{0.12f, 0.30f, 0.45f};
-
-}  // namespace
-
 Rgb mix(Rgb a, Rgb b, float t) {
   return {a.r + (b.r - a.r) * t, a.g + (b.g - a.g) * t, a.b + (b.b - a.b) * t};
 }
@@ -39,19 +25,48 @@ float shore_band_for(Interval relief) {
   return std::max(0.02f * relief.width(), 1.0f);
 }
 
-Rgb material_albedo(const MaterialInput& input) {
-  if (input.water) return kWater;
+namespace {
+
+// Offsets into the packed form, checked while compiling.
+constexpr std::size_t kGrass = material_offset("grass");
+constexpr std::size_t kForest = material_offset("forest");
+constexpr std::size_t kMeadow = material_offset("meadow");
+constexpr std::size_t kBareGround = material_offset("bare_ground");
+constexpr std::size_t kScree = material_offset("scree");
+constexpr std::size_t kRock = material_offset("rock");
+constexpr std::size_t kSnow = material_offset("snow");
+constexpr std::size_t kSand = material_offset("sand");
+constexpr std::size_t kWater = material_offset("water");
+constexpr std::size_t kForestHeight = material_offset("forest_height");
+constexpr std::size_t kTreeLine = material_offset("tree_line");
+constexpr std::size_t kBareGroundHeight = material_offset("bare_ground_height");
+constexpr std::size_t kScreeHeight = material_offset("scree_height");
+constexpr std::size_t kScreeSlope = material_offset("scree_slope");
+constexpr std::size_t kRockSlope = material_offset("rock_slope");
+constexpr std::size_t kSnowSlope = material_offset("snow_slope");
+constexpr std::size_t kSandSlope = material_offset("sand_slope");
+constexpr std::size_t kSnowLine = material_offset("snow_line");
+constexpr std::size_t kSnowBlend = material_offset("snow_blend");
+constexpr std::size_t kSnowAspect = material_offset("snow_aspect");
+constexpr std::size_t kSnowPolar = material_offset("snow_polar");
+
+}  // namespace
+
+Rgb material_albedo(const MaterialInput& input, const PackedMaterial& m) {
+  auto colour = [&](std::size_t at) { return Rgb{m[at], m[at + 1], m[at + 2]}; };
+  auto band = [&](float x, std::size_t at) { return ramp(x, m[at], m[at + 1]); };
+  if (input.water) return colour(kWater);
   const float h = input.height;
   const float s = input.slope;
-  Rgb ground = mix(kGrass, kForest, ramp(h, 0.12f, 0.30f));
-  ground = mix(ground, kMeadow, ramp(h, 0.48f, 0.60f));  // the tree line
-  ground = mix(ground, kBareGround, ramp(h, 0.68f, 0.85f));
-  ground = mix(ground, kScree, ramp(s, 0.45f, 0.60f) * ramp(h, 0.45f, 0.65f));
-  ground = mix(ground, kRock, ramp(s, 0.62f, 0.82f));
-  const float line = 0.80f - 0.10f * input.northness;
-  const float snow = ramp(h, line, line + 0.08f) * (1.0f - ramp(s, 0.50f, 0.70f));
-  ground = mix(ground, kSnow, snow);
-  ground = mix(ground, kSand, input.shore * (1.0f - ramp(s, 0.25f, 0.45f)));
+  Rgb ground = mix(colour(kGrass), colour(kForest), band(h, kForestHeight));
+  ground = mix(ground, colour(kMeadow), band(h, kTreeLine));
+  ground = mix(ground, colour(kBareGround), band(h, kBareGroundHeight));
+  ground = mix(ground, colour(kScree), band(s, kScreeSlope) * band(h, kScreeHeight));
+  ground = mix(ground, colour(kRock), band(s, kRockSlope));
+  const float line = m[kSnowLine] - m[kSnowAspect] * input.northness - m[kSnowPolar] * input.polar;
+  const float snow = ramp(h, line, line + m[kSnowBlend]) * (1.0f - band(s, kSnowSlope));
+  ground = mix(ground, colour(kSnow), snow);
+  ground = mix(ground, colour(kSand), input.shore * (1.0f - band(s, kSandSlope)));
   return ground;
 }
 

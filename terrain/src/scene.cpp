@@ -317,6 +317,12 @@ Result<Scene> SceneParser::parse() {
     scene.georeference.heading = geo.number("heading", 0.0, {-360.0, 360.0});
     reader.adopt("georeference", geo);
   }
+  const nlohmann::json* material = reader.raw("material");
+  if (material != nullptr && reader.ok()) {
+    Result<Material> parsed = parse_material(*material, "/material");
+    if (!parsed) return parsed.error();
+    scene.material = *parsed;
+  }
   definitions_ = reader.raw("definitions");
   if (definitions_ != nullptr && !definitions_->is_object()) {
     reader.fail("must be an object mapping names to nodes", "definitions");
@@ -336,6 +342,10 @@ Result<Scene> SceneParser::parse() {
   context_.water_layers.clear();
 
   nlohmann::json canonical = reader.canonical();
+  // Written only when it draws differently from the defaults: an explicit default material
+  // is the same scene, with the same hash.
+  if (!same_material(scene.material, Material{}))
+    canonical["material"] = material_json(scene.material);
   if (definitions_ != nullptr) {
     // Every definition must be valid, referenced or not: nothing unchecked is stored.
     nlohmann::json defs = nlohmann::json::object();

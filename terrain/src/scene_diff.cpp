@@ -632,6 +632,12 @@ SceneChange SceneChange::between(std::shared_ptr<const Scene> before,
   const bool positions = ca.position_quantum != cb.position_quantum;
   data->global[format_index(TileFormat::glb)] = positions;
   data->global[format_index(TileFormat::draco)] = positions;
+  // Colour tiles measure heights against the relief and take the scene's material.
+  const bool colours =
+      !same_bits(ca.relief.lo, cb.relief.lo) || !same_bits(ca.relief.hi, cb.relief.hi) ||
+      !same_bits(ca.shore_band, cb.shore_band) || !same_material(ca.material, cb.material);
+  data->global[format_index(TileFormat::color_png)] = colours;
+  data->global[format_index(TileFormat::color_jpeg)] = colours;
 
   DiffBuilder builder(*data);
   for (const Node* root : {a.root.get(), b.root.get(), a.water.get(), b.water.get()}) {

@@ -262,14 +262,14 @@ constexpr float kVisibility = 2.5f;
 /// front of it.
 Rgb shade(const FieldSample& s, Vec3 n, Vec3 sun, const Ray& ray, float t, float z,
           const Interval& range, float water_level, float sun_visible, float sky_visible,
-          float span) {
+          float span, const PackedMaterial& material) {
   MaterialInput input;
   input.slope = std::sqrt(1.0f - std::min(1.0f, n.z * n.z));  // sine of the slope angle
   input.height = range.width() > 0 ? (z - range.lo) / range.width() : 0.5f;
   input.northness = northness(s.elevation_gradient.x, s.elevation_gradient.y);
   input.water = z < water_level;
   input.shore = input.water ? 0.0f : 1.0f - ramp(z - water_level, 0.0f, shore_band_for(range));
-  Rgb colour = lit_surface(material_albedo(input), n, sun, sun_visible, sky_visible);
+  Rgb colour = lit_surface(material_albedo(input, material), n, sun, sun_visible, sky_visible);
   if (input.water) colour = water_surface(colour, ray.direction, sun, sun_visible);
   return aerial_perspective(colour, ray.direction, t, kVisibility * span, sun);
 }
@@ -321,6 +321,7 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
   if (trace.accelerated && trace.bounds == nullptr) trace.bounds = &bounds;
   std::atomic<bool> out_of_budget{false};
   const Vec3 sun = sun_direction();
+  const PackedMaterial material = pack_material(options.material);
   auto worker = [&] {
     Evaluator evaluator(program);
     TraceOptions ray_trace = trace;
@@ -372,7 +373,7 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
             pixel_steps += kSkyVisibilitySamples;
           }
           color = shade(s, n, sun, ray, hit.t, hit.position.z, domain.elevation,
-                        options.water_level, sun_visible, sky_visible, span);
+                        options.water_level, sun_visible, sky_visible, span, material);
           picture.depth[at] = hit.t;
         }
         steps += pixel_steps;

@@ -27,6 +27,14 @@ Status check_inputs(const HeightTile& tile, const ColorTileInputs& inputs) {
   if (!(inputs.shore_band >= 0.0f && std::isfinite(inputs.shore_band))) {
     return Error{"the shore band must be finite and at least 0", "/shore_band"};
   }
+  if (!inputs.polar.empty() && inputs.polar.size() != static_cast<std::size_t>(tile.height)) {
+    return Error{"must hold one value per row of samples", "/polar"};
+  }
+  for (std::size_t row = 0; row < inputs.polar.size(); ++row) {
+    if (!(std::abs(inputs.polar[row]) <= 1.0f)) {
+      return Error{"must be a sine, -1 to 1", "/polar/" + std::to_string(row)};
+    }
+  }
   if (Status ok = check_light(inputs.light); !ok) return ok.error();
   if (Status ok = check_heights(tile); !ok) return ok.error();
   return check_slopes(tile);
@@ -45,6 +53,8 @@ Result<std::vector<std::uint8_t>> color_pixels(const HeightTile& tile,
     const float z_factor = static_cast<float>(inputs.light.z_factor);
     const float lo = inputs.relief.lo;
     const float width = inputs.relief.width();
+    const PackedMaterial material = pack_material(inputs.material);
+    const std::size_t row_length = static_cast<std::size_t>(tile.width);
     Bytes rgb(sample_count(tile) * 3);
     for (std::size_t i = 0; i < tile.elevation.size(); ++i) {
       const float ground = tile.elevation[i];
@@ -57,6 +67,12 @@ Result<std::vector<std::uint8_t>> color_pixels(const HeightTile& tile,
                         : 0.0f;
       input.height = width > 0.0f ? (ground - lo) / width : 0.5f;
       input.northness = northness(tile.slope_east[i], tile.slope_north[i]);
+      if (!inputs.polar.empty()) {
+        // South of the equator the slopes that face the pole, and keep their snow, face south.
+        const float polar = inputs.polar[i / row_length];
+        input.polar = std::abs(polar);
+        if (polar < 0.0f) input.northness = -input.northness;
+      }
       // The slope of the ground itself; the light sees it exaggerated by z_factor.
       const Vec3 normal = normalise({-tile.slope_east[i], -tile.slope_north[i], 1.0f});
       input.slope = std::sqrt(1.0f - std::min(1.0f, normal.z * normal.z));
@@ -64,7 +80,7 @@ Result<std::vector<std::uint8_t>> color_pixels(const HeightTile& tile,
           input.water
               ? Vec3{0.0f, 0.0f, 1.0f}
               : normalise({-z_factor * tile.slope_east[i], -z_factor * tile.slope_north[i], 1.0f});
-      const Rgb albedo = material_albedo(input);
+      const Rgb albedo = material_albedo(input, material);
       const float light = sun_light(lit, sun);
       rgb[3 * i] = colour_byte(albedo.r * light);
       rgb[3 * i + 1] = colour_byte(albedo.g * light);

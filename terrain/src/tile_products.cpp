@@ -78,6 +78,7 @@ ProductMaker::ProductMaker(TileSource source) : generator_(std::move(source)) {
   constants_.gray16 = gray16_encoding_for(s.elevation_range);
   constants_.relief = s.elevation_range;
   constants_.shore_band = shore_band_for(s.elevation_range);
+  constants_.material = s.material;
   const double range = static_cast<double>(s.elevation_range.hi) - s.elevation_range.lo;
   constants_.edge_quantum = edge_quantum_for(s.elevation_range.lo, s.elevation_range.hi);
   // Positions span the scene's square; skirts reach below it by at most a few tens of metres
@@ -211,6 +212,8 @@ Result<Product> encode_product(const HeightTile& tile, TileFormat format,
       inputs.relief = constants.relief;
       inputs.water_surface = extras.water_surface;
       inputs.shore_band = constants.shore_band;
+      inputs.material = constants.material;
+      inputs.polar = extras.polar;
       bytes = encode_color(tile, inputs,
                            format == TileFormat::color_png ? ColorCodec::png : ColorCodec::jpeg);
       break;

@@ -119,6 +119,7 @@ Result<TileSource> TileSource::from_scene(const Scene& scene) {
                                      static_cast<double>(area.hi.y) - area.lo.y);
   source.local_square = {cx - half, cy - half, cx + half, cy + half};
   source.georeference = scene.georeference;
+  source.material = scene.material;
   source.base_elevation = scene.base_elevation;
   source.elevation_range = scene.bounds.elevation.hull(Interval::point(scene.base_elevation));
   return source;

@@ -72,6 +72,7 @@ TEST_P(EveryExamplePictureOnGpu, MatchesTheCpuPicture) {
   terrain::RenderOptions options;
   options.threads = 2;
   options.water_level = loaded.program.base_elevation + 1.0f;  // water shading is compared too
+  options.material = loaded.scene.material;
   const terrain::Picture cpu = terrain::render(loaded.program, area, camera, options);
   terrain::Result<terrain::Picture> gpu = tracer().render(loaded.program, area, camera, options);
   ASSERT_TRUE(gpu.ok()) << gpu.error().message;
@@ -185,6 +186,34 @@ TEST(GpuPicture, HonoursTheLightingOptions) {
   EXPECT_GT(steps[0], steps[2]);
   EXPECT_GT(steps[1], steps[3]);
   EXPECT_GT(steps[2], steps[3]);
+}
+
+TEST(GpuPicture, TakesTheMaterialOfItsOptions) {
+  const Loaded loaded =
+      load(std::string(TERRAIN_SOURCE_DIR) + "/config/scenes/alpine-valleys.json");
+  const terrain::Box2 area = loaded.scene.area();
+  const terrain::Camera camera = terrain::default_camera(loaded.program, area, 48, 30);
+  terrain::RenderOptions options;
+  options.threads = 1;
+  const terrain::Picture plain = terrain::render(loaded.program, area, camera, options);
+  // Every parameter off its default: colours, bands, slopes and the snow line.
+  const terrain::Result<terrain::Material> odd = terrain::parse_material(
+      nlohmann::json::parse(R"({"grass": "#a04020", "forest": "#203090", "meadow": "#c0c000",
+        "rock": "#ff00ff", "snow": "#00ffff", "tree_line": [0.3, 0.4], "rock_slope": [25, 40],
+        "snow_line": 0.5, "snow_aspect": 0.3, "snow_slope": [35, 50]})"),
+      "/material");
+  ASSERT_TRUE(odd.ok()) << odd.error().message;
+  options.material = *odd;
+  const terrain::Picture cpu = terrain::render(loaded.program, area, camera, options);
+  terrain::Result<terrain::Picture> gpu = tracer().render(loaded.program, area, camera, options);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+  std::size_t same = 0, changed = 0;
+  for (std::size_t i = 0; i < cpu.rgb.size(); ++i) {
+    if (std::abs(int{cpu.rgb[i]} - int{gpu->rgb[i]}) <= kColourTolerance) ++same;
+    if (cpu.rgb[i] != plain.rgb[i]) ++changed;
+  }
+  EXPECT_GE(static_cast<double>(same), kAgreeingShare * static_cast<double>(cpu.rgb.size()));
+  EXPECT_GT(changed, cpu.rgb.size() / 4) << "the material changed the picture";
 }
 
 TEST(GpuPicture, IsRefusedForAnEmptyPicture) {

@@ -2,6 +2,10 @@
 // the offending field's JSON pointer.
 #include <gtest/gtest.h>
 
+#include <string>
+#include <utility>
+#include <vector>
+
 #include "planet/definition.hpp"
 
 namespace planet {
@@ -99,6 +103,34 @@ TEST(PlanetDefinition, ContinentMapIsPartOfTheCanonicalJsonAndTheId) {
   EXPECT_NE(planet_id(*without), planet_id(*with));
   // Without a map the field is left out, so planets defined before it existed keep their ids.
   EXPECT_FALSE(canonical_json(*without).contains("continent_map"));
+}
+
+TEST(PlanetDefinition, MaterialIsInTheIdOnlyWhenItDrawsDifferently) {
+  Result<PlanetDefinition> plain = parse_planet_text(R"({"seed": 7})");
+  Result<PlanetDefinition> defaults =
+      parse_planet_text(R"({"seed": 7, "material": {"snow_polar": 0.7}})");
+  Result<PlanetDefinition> arctic =
+      parse_planet_text(R"({"seed": 7, "material": {"snow_polar": 1.2}})");
+  ASSERT_TRUE(plain.ok() && defaults.ok() && arctic.ok());
+  EXPECT_EQ(planet_id(*defaults), planet_id(*plain));
+  EXPECT_FALSE(canonical_json(*plain).contains("material"));
+  EXPECT_NE(planet_id(*arctic), planet_id(*plain));
+  EXPECT_EQ(canonical_json(*arctic).at("material").at("snow_polar"), 1.2);
+  Result<PlanetDefinition> back = parse_planet(canonical_json(*arctic));
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(planet_id(*back), planet_id(*arctic));
+}
+
+TEST(PlanetDefinition, BadMaterialsAreRejectedNamingTheField) {
+  for (const auto& [text, pointer] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"material": 3})", "/material"},
+           {R"({"material": {"lava": [1, 0, 0]}})", "/material/lava"},
+           {R"({"material": {"snow_slope": [45, 30]}})", "/material/snow_slope/1"},
+           {R"({"material": {"sand": [0.5, 0.5, -1]}})", "/material/sand/2"}}) {
+    Result<PlanetDefinition> d = parse_planet_text(text);
+    ASSERT_FALSE(d.ok()) << text;
+    EXPECT_EQ(d.error().pointer, pointer) << text;
+  }
 }
 
 TEST(PlanetDefinition, ContinentMapMustBeAnImageHashNeverAPathOrUrl) {

@@ -8,6 +8,7 @@
 
 #include "planet/definition.hpp"
 #include "server/app.hpp"
+#include "terrain/material.hpp"
 #include "terrain/node.hpp"
 
 namespace server {
@@ -168,6 +169,7 @@ TEST_F(AppTest, PlanetRoutesHaveMetricLabelsOfTheirOwn) {
   EXPECT_EQ(label("/api/v1/planets/default/sample?lat=1&lon=2"), "planet_sample");
   EXPECT_EQ(label("/api/v1/planets/default/layer.json"), "planet_layer.json");
   EXPECT_EQ(label("/api/v1/planets/default/tilejson.json"), "planet_tilejson.json");
+  EXPECT_EQ(label("/api/v1/planets/default/material.json"), "planet_material.json");
   EXPECT_EQ(label("/api/v1/scenes/craters/tiles/1/1/0.png"), "tiles");
 }
 
@@ -230,6 +232,32 @@ TEST_F(AppTest, TraceBundleNamesTheProgramsNodeTypesAndItsUnrolledGlsl) {
   const Response large = get("/api/v1/scenes/winding-road@1/trace.json");
   ASSERT_EQ(large.result(), http::status::ok);
   EXPECT_EQ(nlohmann::json::parse(large.body().view()).at("unroll_pays"), false);  // 106 leaves
+}
+
+// The bundle and a planet's material.json carry the material packed as the tracers read it:
+// butte's own colours, the defaults elsewhere.
+TEST_F(AppTest, TraceBundleAndPlanetMaterialCarryThePackedMaterial) {
+  auto packed_of = [&](const std::string& url) {
+    const Response r = get(url);
+    EXPECT_EQ(r.result(), http::status::ok) << url << ": " << r.body().view();
+    const auto floats = nlohmann::json::parse(r.body().view()).at("material");
+    std::vector<float> out;
+    for (const auto& v : floats) out.push_back(v.get<float>());
+    return out;
+  };
+  const terrain::PackedMaterial defaults = terrain::pack_material({});
+  const std::vector<float> default_floats(defaults.begin(), defaults.end());
+  EXPECT_EQ(packed_of("/api/v1/scenes/craters@1/trace.json"), default_floats);
+  const std::vector<float> butte = packed_of("/api/v1/scenes/butte@1/trace.json");
+  ASSERT_EQ(butte.size(), terrain::kMaterialFloats);
+  EXPECT_NE(butte, default_floats);
+  EXPECT_EQ(butte[terrain::material_offset("snow_line")], 2.0f);
+  EXPECT_EQ(packed_of("/api/v1/planets/default/material.json"), default_floats);
+  const auto body =
+      nlohmann::json::parse(get("/api/v1/planets/default/material.json").body().view());
+  EXPECT_EQ(body.at("relief").at(0), 0.0);
+  EXPECT_GT(body.at("relief").at(1).get<double>(), 5000.0);
+  EXPECT_EQ(body.at("shore_band"), 15.0);
 }
 
 // A tile of an immutable URL asked for again is answered by a remembered route, without parsing,

@@ -661,6 +661,8 @@ TEST_F(HttpApi, MalformedScenesAre400ProblemsNamingTheFieldAndStoreNothing) {
   bad_format["format"] = "terrain-scene/99";
   json no_root = json::parse(disc_scene(1));
   no_root.erase("root");
+  json bad_material = json::parse(disc_scene(1));
+  bad_material["material"] = {{"rock_slope", {50, 40}}};
   struct Case {
     std::string name;
     std::string body;
@@ -674,6 +676,7 @@ TEST_F(HttpApi, MalformedScenesAre400ProblemsNamingTheFieldAndStoreNothing) {
       {"wrong field type", bad_radius.dump(), "/root/radius"},
       {"unknown format", bad_format.dump(), "/format"},
       {"missing root", no_root.dump(), "/root"},
+      {"material band falling", bad_material.dump(), "/material/rock_slope/1"},
       {"deeply nested arrays", R"({"format":"terrain-scene/1","name":)" + arrays + "}", "/name"},
   };
   const std::size_t scenes_before = body_json(get("/api/v1/scenes"))["scenes"].size();

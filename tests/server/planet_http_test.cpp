@@ -130,6 +130,9 @@ TEST_F(HttpPlanets, BadInputIsAProblemNamingTheFieldAndStoresNothing) {
   expect_problem(post(R"({"radius": -5})"), 400, "/radius");
   expect_problem(post(R"({"detail": {"hurst": "rough"}})"), 400, "/detail/hurst");
   expect_problem(post(R"({"seed": 1, "colour": "blue"})"), 400, "/colour");
+  expect_problem(post(R"({"seed": 1, "material": {"rock": "grey"}})"), 400, "/material/rock");
+  expect_problem(post(R"({"seed": 1, "material": {"tree_line": [0.6, 0.5]}})"), 400,
+                 "/material/tree_line/1");
   expect_problem(post(kSmallPlanet, {}), 401, "");
   expect_problem(post(kSmallPlanet, {{"Authorization", "Bearer wrong"}}), 403, "");
   EXPECT_EQ(planet_count(), count);

@@ -395,6 +395,7 @@ TEST(SceneChange, RaisingADiscMakesGray16AndMeshesGlobalWhenTheirQuantisationMov
   EXPECT_EQ(change.format_global(TileFormat::quantized_mesh), ca.edge_quantum != cb.edge_quantum);
   EXPECT_FALSE(change.format_global(TileFormat::geotiff));
   EXPECT_FALSE(change.format_global(TileFormat::terrain_rgb));
+  EXPECT_TRUE(change.format_global(TileFormat::color_png));  // heights are fractions of the relief
   EXPECT_FALSE(change.everything());
   expect_local_prediction(a, b, hills_grid(), "hills",
                           only_faint_fringe({disc_of(base["root"]["children"][2])}));
@@ -406,6 +407,27 @@ TEST(SceneChange, RaisingADiscMakesGray16AndMeshesGlobalWhenTheirQuantisationMov
   EXPECT_FALSE(small.format_global(TileFormat::gray16));
   EXPECT_FALSE(small.format_global(TileFormat::glb));
   EXPECT_FALSE(small.format_global(TileFormat::quantized_mesh));
+}
+
+TEST(SceneChange, ANewMaterialChangesEveryColourTileAndNoHeightProduct) {
+  const json base = json::parse(kHills);
+  json edited = base;
+  edited["material"] = {{"grass", "#ff0000"}};
+  const SceneChange change = change_between(version_of(base), version_of(edited));
+  EXPECT_FALSE(change.unchanged());
+  EXPECT_FALSE(change.everything());
+  EXPECT_FALSE(change.box());
+  EXPECT_TRUE(change.format_global(TileFormat::color_png));
+  EXPECT_TRUE(change.format_global(TileFormat::color_jpeg));
+  const ProductOptions options;
+  EXPECT_EQ(
+      change.changed_tiles(TileScheme::local, 3, TileFormat::color_jpeg, options, 1000).size(),
+      64u);
+  for (TileFormat f : {TileFormat::terrain_rgb, TileFormat::gray16, TileFormat::hillshade,
+                       TileFormat::quantized_mesh, TileFormat::glb}) {
+    EXPECT_FALSE(change.format_global(f));
+    EXPECT_TRUE(change.changed_tiles(TileScheme::local, 3, f, options, 1000).empty());
+  }
 }
 
 TEST(SceneChange, AddingADiscInTheMiddleOfABlendChangesOnlyWhereItWeighs) {
@@ -735,7 +757,8 @@ TEST(SceneChange, EditingUnderAnErosionChangesItsSquareAndNothingElse) {
          "noise": {"kind": "ridged", "amplitude": 200, "wavelength": 400, "octaves": 4}}]}]}})");
   json edited = base;
   edited["root"]["children"][1]["children"][0]["elevation"] = 340;
-  const Box2 square{{1210.5f - 650.25f, 1190.25f - 650.25f}, {1210.5f + 650.25f, 1190.25f + 650.25f}};
+  const Box2 square{{1210.5f - 650.25f, 1190.25f - 650.25f},
+                    {1210.5f + 650.25f, 1190.25f + 650.25f}};
   // A predicted tile that kept its heights lies on the square's border fall-off at most.
   const Explain on_the_square = [square](const HeightTile& t) {
     for (std::size_t i = 0; i < t.scene_x.size(); ++i) {

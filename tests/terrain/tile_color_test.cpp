@@ -89,6 +89,32 @@ TEST(ColorTile, SandOnShoresJustAboveTheWaterAndSnowLowerOnNorthFaces) {
   EXPECT_GT(north.b - south.b, 40) << "north " << north.b << ", south " << south.b;
 }
 
+TEST(ColorTile, PlanetRowsLowerTheSnowLinePolewardAndFacePolewardSouthOfTheEquator) {
+  // Four samples at 40 % of the relief: flat at the equator and flat near a pole (row 0 and
+  // row 1 below); then, as a second tile, the same slope facing north in the north and in
+  // the south at 45° of latitude, the snow line then 0.80 − 0.7·0.707 ≈ 0.30 ± 0.10.
+  const HeightTile flat = four_samples({400.0f, 400.0f, 400.0f, 400.0f}, {0.0f, 0.0f, 0.0f, 0.0f},
+                                       {0.0f, 0.0f, 0.0f, 0.0f});
+  ColorTileInputs inputs;
+  inputs.relief = {0.0f, 1000.0f};
+  const std::vector<float> equator_then_pole = {0.0f, -0.99f};
+  inputs.polar = equator_then_pole;
+  Result<Bytes> rgb = color_pixels(flat, inputs);
+  ASSERT_TRUE(rgb.ok()) << rgb.error().message;
+  EXPECT_GT(pixel_at(*rgb, 0).g, pixel_at(*rgb, 0).b) << "no snow at the equator";
+  EXPECT_GT(pixel_at(*rgb, 2).b, 190) << "snow near a pole, south as north";
+
+  const float t = 0.5f;  // 27°, facing north (the gradient rises southward)
+  const HeightTile slope =
+      four_samples({330.0f, 330.0f, 330.0f, 330.0f}, {0.0f, 0.0f, 0.0f, 0.0f}, {-t, -t, -t, -t});
+  const std::vector<float> north_then_south = {0.7071f, -0.7071f};
+  inputs.polar = north_then_south;
+  rgb = color_pixels(slope, inputs);
+  ASSERT_TRUE(rgb.ok());
+  // Facing north is facing the pole in the north, the equator in the south: less snow there.
+  EXPECT_GT(pixel_at(*rgb, 0).b - pixel_at(*rgb, 2).b, 20);
+}
+
 TEST(ColorTile, SlopesFacingTheNorthWestSunAreBrighter) {
   // The same 27° slope rising to the south-east (facing the sun) and to the north-west.
   const float s = 0.5f / std::sqrt(2.0f);
@@ -224,6 +250,12 @@ TEST(ColorTile, RefusesMalformedInputsNamingTheField) {
   inputs.light.altitude_deg = 120.0;
   EXPECT_EQ(color_pixels(tile, inputs).error().pointer, "/hillshade/altitude_deg");
   inputs.light = {};
+  const std::vector<float> wrong_rows(3, 0.0f), not_a_sine(5, 1.5f);
+  inputs.polar = wrong_rows;
+  EXPECT_EQ(color_pixels(tile, inputs).error().pointer, "/polar");
+  inputs.polar = not_a_sine;
+  EXPECT_EQ(color_pixels(tile, inputs).error().pointer, "/polar/0");
+  inputs.polar = {};
   HeightTile broken = tile;
   broken.elevation[7] = std::numeric_limits<float>::quiet_NaN();
   EXPECT_EQ(color_pixels(broken, inputs).error().pointer, "/elevation/7");

@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "terrain/material.hpp"
 #include "terrain/result.hpp"
 
 namespace planet {
@@ -55,6 +56,9 @@ struct PlanetDefinition {
   /// definition can never make a server read a file or fetch anything; whoever builds the planet
   /// supplies the decoded pixels. With a map, `continents` and `land_fraction` are ignored.
   std::string continent_map;
+  /// The colours of the planet's colour tiles and of the viewer ("material", docs/material.md);
+  /// written to the canonical form only when it differs from the defaults.
+  terrain::Material material;
 
   /// Faces of the base mesh after rounding: the 8·2^k nearest to base_faces (in log scale).
   int base_levels() const;
@@ -69,8 +73,9 @@ Result<PlanetDefinition> parse_planet_text(std::string_view text);
 /// Reads a definition file.
 Result<PlanetDefinition> load_planet_file(const std::string& path);
 
-/// Every field explicit, except continent_map, which is written only when set (so planets
-/// defined before the field existed keep their ids): parse_planet(canonical_json(d)) gives d back.
+/// Every field explicit, except continent_map, written only when set, and material, written only
+/// when it differs from the defaults (so planets defined before those fields existed keep their
+/// ids): parse_planet(canonical_json(d)) gives d back.
 nlohmann::json canonical_json(const PlanetDefinition& definition);
 /// The canonical text: keys sorted, no whitespace, shortest round-trip numbers.
 std::string canonical_text(const PlanetDefinition& definition);

@@ -29,7 +29,10 @@ class PlanetTiles {
   /// The products' constants: one gray16 encoding and edge quantum for the whole planet; the
   /// glTF/Draco position lattice per zoom (tile positions are plate carrée metres, R·λ and R·φ,
   /// whose span shrinks with the zoom, so each zoom's lattice is as fine as a tile allows).
-  terrain::ProductConstants constants_at(int z) const;
+  terrain::ProductConstants constants_at(int z) const { return constants_for(planet(), z); }
+  /// The same for any planet (what its colour tiles measure relief and shores with, and the
+  /// viewer's planet mode too).
+  static terrain::ProductConstants constants_for(const Planet& planet, int z);
 
   /// Checks the scheme (geographic; webmercator for height images, not meshes), address,
   /// format and options; the error names the field ("/scheme", "/z", "/x", "/size", "/grid",

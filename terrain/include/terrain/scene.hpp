@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "terrain/image_io.hpp"
+#include "terrain/material.hpp"
 #include "terrain/node.hpp"
 #include "terrain/result.hpp"
 
@@ -127,6 +128,8 @@ struct Scene {
   float base_elevation = 0.0f;  ///< elevation where no primitive has weight
   std::optional<Box2> extent;   ///< the declared square of interest (tiles cover it)
   Georeference georeference;
+  /// The colours of its pictures and colour tiles ("material"; defaults when absent).
+  Material material;
   NodePtr root;
   /// Optional water layer (Génevaux Fig. 20): a second tree whose elevation is the water surface
   /// and whose weight marks where water is (weight ≥ 0.5 and surface above the terrain).

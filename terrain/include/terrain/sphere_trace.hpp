@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "terrain/evaluate.hpp"
+#include "terrain/material.hpp"
 
 namespace terrain {
 
@@ -134,6 +135,7 @@ struct RenderOptions {
   float water_level = -1e9f;  ///< draw water below this elevation
   bool shadows = true;        ///< trace a shadow ray towards the sun from every sunlit hit
   bool occlusion = true;      ///< measure the sky each hit sees (sky_visibility)
+  Material material;          ///< the scene's (Scene::material)
   int threads = 0;
   /// Called with the fraction done (0..1) from the calling thread; may be empty.
   std::function<void(float)> progress;

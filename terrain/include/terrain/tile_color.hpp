@@ -9,6 +9,7 @@
 #include <span>
 #include <vector>
 
+#include "terrain/material.hpp"
 #include "terrain/math.hpp"
 #include "terrain/result.hpp"
 #include "terrain/tile.hpp"
@@ -27,6 +28,11 @@ struct ColorTileInputs {
   std::span<const float> water_surface;
   /// Shores: sand from the water's edge up to this many metres above its surface (0: none).
   float shore_band = 0.0f;
+  /// The colours and where each cover takes over (a scene's or planet's "material").
+  Material material;
+  /// One value per row of samples: |sine of its latitude|, which lowers the snow line towards
+  /// the poles, and whose sign says which way is poleward (negative: south). Empty: 0 (scenes).
+  std::span<const float> polar;
   /// The sun: from the north-west, 45° high, as in cartographic hillshades.
   HillshadeOptions light;
 };

@@ -26,7 +26,8 @@ namespace terrain {
 /// hashes under an old generation. 2: erosion routes by Rho8 and sub-steps its diffusion. 3: the
 /// material model's forest, scree, aspect-dependent snow line and shores (pictures, colour tiles).
 /// 4: pictures' soft shadows, sky occlusion, Rayleigh–Mie sky, aerial perspective and water.
-inline constexpr int kProductGeneration = 4;
+/// 5: material parameters: slope bands at whole degrees, a snow line lower towards planets' poles.
+inline constexpr int kProductGeneration = 5;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
@@ -94,6 +95,7 @@ struct ProductConstants {
   int max_useful_zoom[3] = {0, 0, 0};  ///< per scheme: where mesh grid spacing reaches ~1 m
   Interval relief{0.0f, 0.0f};         ///< colour tiles: see ColorTileInputs::relief
   float shore_band = 0.0f;             ///< colour tiles: see ColorTileInputs::shore_band
+  Material material;                   ///< colour tiles: see ColorTileInputs::material
 };
 
 /// What some products carry besides the tile's heights: the source computes these (ProductMaker
@@ -102,6 +104,7 @@ struct ProductExtras {
   std::optional<std::vector<std::uint8_t>> water_mask;  ///< quantized-mesh: QuantizedMeshOptions
   std::optional<std::string> metadata;                  ///< quantized-mesh: JSON text
   std::vector<float> water_surface;  ///< colour tiles: ColorTileInputs::water_surface
+  std::vector<float> polar;          ///< colour tiles: ColorTileInputs::polar
 };
 
 /// Encodes a height tile in `format` with a source's constants: the part of ProductMaker::make

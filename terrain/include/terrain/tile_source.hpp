@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "terrain/evaluate.hpp"
+#include "terrain/material.hpp"
 #include "terrain/program.hpp"
 #include "terrain/scene.hpp"
 #include "terrain/sphere_trace.hpp"
@@ -64,6 +65,7 @@ struct TileSource {
   std::shared_ptr<const Program> water;  ///< the scene's water layer, or null
   TileBounds local_square;  ///< the local scheme's zoom-0 tile: the scene's area made square
   Georeference georeference;
+  Material material;  ///< the scene's, for colour tiles
   float base_elevation = 0.0f;
   Interval elevation_range;  ///< a bound of every tile's heights (with the base level)
 
