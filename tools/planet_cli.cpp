@@ -13,6 +13,7 @@
 
 #include "cli_args.hpp"
 #include "export_command.hpp"
+#include "planet/analysis.hpp"
 #include "planet/continent_map.hpp"
 #include "planet/picture.hpp"
 #include "planet/planet.hpp"
@@ -36,6 +37,10 @@ Usage:
                                          one tile: S = geographic (EPSG:4326, TMS; default) or
                                          webmercator (EPSG:3857 XYZ, height images)
   planet layer-json PLANET.json          Cesium layer.json for the planet's tiles
+  planet analyze PLANET.json LAT LON [--zoom Z | --cell M] [--size N] [--channel-area A]
+                                         geomorphometry of N × N samples (default 512) around
+                                         LAT, LON, M metres apart (default: a zoom-Z tile's
+                                         spacing, Z = 8): docs/analysis.md
   planet export [PLANET.json|default]    an offline pack (MBTiles 1.3 or PMTiles v3) of the
                                          planet's geographic tiles as the server serves them
                                          (docs/packs.md); default: config/planets/default.json
@@ -278,6 +283,46 @@ int run(const Args& args) {
                                 {"milliseconds", ms}}
                      .dump(2)
               << "\n";
+    return 0;
+  }
+  if (command == "analyze" && args.positional.size() >= 4) {
+    PlanetAnalysisOptions options;
+    const auto lat = tools::parse_number(args.positional[2]);
+    const auto lon = tools::parse_number(args.positional[3]);
+    const auto size = integer_arg("--size", args.get("--size", "512"), 2, kMaxPlanetAnalysisSide);
+    const auto zoom = integer_arg("--zoom", args.get("--zoom", "8"), 0, PlanetTiles::max_zoom());
+    if (!lat || !lon) {
+      std::cerr << "planet analyze: LAT and LON must be numbers of degrees\n";
+      return 2;
+    }
+    if (!size || !zoom) return 2;
+    options.latitude = *lat;
+    options.longitude = *lon;
+    options.size = static_cast<int>(*size);
+    options.zoom = static_cast<int>(*zoom);
+    if (args.has("--cell")) {
+      const auto cell = tools::parse_number(args.get("--cell", ""));
+      if (!cell || !(*cell > 0)) {
+        std::cerr << "planet analyze: --cell must be a number of metres greater than 0\n";
+        return 2;
+      }
+      options.cell_size = *cell;
+    }
+    if (args.has("--channel-area")) {
+      const auto area = tools::parse_number(args.get("--channel-area", ""));
+      if (!area || !(*area > 0)) {
+        std::cerr << "planet analyze: --channel-area must be an area in m² greater than 0\n";
+        return 2;
+      }
+      options.analysis.channel_area = *area;
+    }
+    Result<nlohmann::json> figures = analyze_planet(world, options);
+    if (!figures) {
+      std::cerr << "planet analyze: " << figures.error().pointer << ": " << figures.error().message
+                << "\n";
+      return 2;
+    }
+    std::cout << figures->dump(2) << "\n";
     return 0;
   }
   if (command == "layer-json") {

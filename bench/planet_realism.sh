@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Geomorphometry of planets (issue 20's targets: pits ≤ 0.1 % of land cells, closed depressions
+# ≤ 2 % of land outside lakes, Flint's law 0.3 ≤ θ ≤ 0.8 with r² ≥ 0.3): `planet analyze` over
+# 512² samples around a land point at the ground spacing of zooms 8, 11 and 14, on the default
+# planet and on the same definition with two other seeds. Definitions: docs/analysis.md.
+# Usage: bench/planet_realism.sh [BUILD_DIR]   (default build/release)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build="${1:-build/release}"
+planet="$build/tools/planet"
+[ -x "$planet" ] || { echo "missing $planet: build planet_cli" >&2; exit 1; }
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+# A definition and a land point of each planet (found with `planet sample`).
+seeded() {
+  python3 -c "import json,sys; d=json.load(open('config/planets/default.json')); d['seed']=int(sys.argv[1]); print(json.dumps(d))" "$1" > "$work/seed-$1.json"
+  echo "$work/seed-$1.json"
+}
+planets=("config/planets/default.json 6.5 40" "$(seeded 7) 5 150" "$(seeded 42) 30 60")
+printf '%-12s %4s %8s %8s %8s %7s %6s %6s %8s\n' planet zoom cell_m pits_% closed_% theta r2 R_b seconds
+for entry in "${planets[@]}"; do
+  read -r definition lat lon <<< "$entry"
+  name="$(basename "$definition" .json)"
+  for zoom in 8 11 14; do
+    start=$(date +%s.%N)
+    "$planet" analyze "$definition" "$lat" "$lon" --zoom "$zoom" > "$work/out.json"
+    seconds=$(echo "$(date +%s.%N) - $start" | bc)
+    python3 - "$work/out.json" "$name" "$zoom" "$seconds" << 'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+f = d["flint"] or {}
+def fmt(v, spec):
+    return format(v, spec) if isinstance(v, (int, float)) else "-"
+rb = d["strahler"]["bifurcation_ratio"]
+print(f"{sys.argv[2]:<12} {sys.argv[3]:>4} {d['input']['cell_size_m']:8.1f} "
+      f"{100 * d['pits']['share']:8.3f} {100 * d['closed_depression_share']:8.2f} "
+      f"{fmt(f.get('theta'), '7.3f'):>7} {fmt(f.get('r_squared'), '6.3f'):>6} {fmt(rb, '6.2f'):>6} "
+      f"{float(sys.argv[4]):8.2f}")
+PY
+  done
+done

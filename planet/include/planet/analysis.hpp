@@ -1,0 +1,39 @@
+// Geomorphometry of a planet (docs/analysis.md, "Planets"): the figures `terrain analyze` gives
+// scenes — pits, closed depressions, Flint's law, Horton–Strahler, drainage density — over a
+// square of the planet's surface sampled as its tiles are, so that the realism of planets is
+// measured by the same definitions as the realism of scenes.
+#pragma once
+
+#include <memory>
+
+#include <nlohmann/json.hpp>
+
+#include "planet/planet.hpp"
+#include "terrain/geomorphometry.hpp"
+#include "terrain/result.hpp"
+
+namespace planet {
+
+/// The largest side of the analysed square, in samples.
+inline constexpr int kMaxPlanetAnalysisSide = 2048;
+
+struct PlanetAnalysisOptions {
+  double latitude = 0.0;   ///< degrees, the square's centre
+  double longitude = 0.0;  ///< degrees
+  /// Metres between samples, east and north; each sample is taken at the level of detail of a
+  /// tile of this ground spacing (Sampler::sample). 0: the spacing of a 256² tile at `zoom`.
+  double cell_size = 0.0;
+  int zoom = 8;    ///< used when cell_size is 0 (geographic tiles: 265 m per sample at zoom 8)
+  int size = 512;  ///< samples per side
+  terrain::AnalysisOptions analysis;
+};
+
+/// Samples `size` × `size` points on the plane tangent at the centre (east, north), `cell_size`
+/// apart, and analyses them: sea samples are water (outlets), river samples wet land. The JSON
+/// is terrain::to_json's figures plus "input" (the planet id, centre, cell size, level, sea and
+/// river cells). Errors name the field: /latitude, /longitude, /cell_size, /zoom, /size, and
+/// terrain::analyze's.
+terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Planet>& planet,
+                                               const PlanetAnalysisOptions& options);
+
+}  // namespace planet

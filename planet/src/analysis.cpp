@@ -1,0 +1,85 @@
+#include "planet/analysis.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "planet/tiles.hpp"
+#include "terrain/drainage.hpp"
+
+namespace planet {
+
+terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Planet>& planet,
+                                               const PlanetAnalysisOptions& options) {
+  using terrain::Error;
+  if (!(std::abs(options.latitude) <= 85.0)) {
+    return Error{"must be a latitude from -85 to 85 degrees", "/latitude"};
+  }
+  if (!(std::abs(options.longitude) <= 180.0)) {
+    return Error{"must be a longitude from -180 to 180 degrees", "/longitude"};
+  }
+  if (options.size < 2 || options.size > kMaxPlanetAnalysisSide) {
+    return Error{"must be an integer from 2 to " + std::to_string(kMaxPlanetAnalysisSide), "/size"};
+  }
+  if (options.cell_size == 0.0 && (options.zoom < 0 || options.zoom > PlanetTiles::max_zoom())) {
+    return Error{"must be a zoom from 0 to " + std::to_string(PlanetTiles::max_zoom()), "/zoom"};
+  }
+  const double cell =
+      options.cell_size == 0.0 ? planet->ground_spacing(options.zoom, 256) : options.cell_size;
+  if (!std::isfinite(cell) || !(cell >= 0.01) || !(cell <= 1e5)) {
+    return Error{"must be a number of metres from 0.01 to 100000", "/cell_size"};
+  }
+  const int n = options.size;
+  const double radius = planet->definition().radius;
+  const double degree = std::numbers::pi / 180.0;
+  const double half = 0.5 * (n - 1) * cell;
+  // The square spans at most n·cell along a great circle: the tangent plane's east and north
+  // axes become latitude and longitude offsets (exact on the central meridian and parallel,
+  // within (side / radius)² elsewhere).
+  if (half / radius > 0.2)
+    return Error{"covers too much of the planet (size × cell_size)", "/size"};
+  std::vector<float> elevation(static_cast<std::size_t>(n) * static_cast<std::size_t>(n));
+  std::vector<std::uint8_t> sea(elevation.size(), 0), wet(elevation.size(), 0);
+  std::int64_t sea_cells = 0, river_cells = 0;
+  Sampler sampler(planet);
+  const double cos_centre = std::cos(options.latitude * degree);
+  for (int j = 0; j < n; ++j) {
+    const double north = -half + j * cell;
+    const double latitude = options.latitude + north / radius / degree;
+    for (int i = 0; i < n; ++i) {
+      const double east = -half + i * cell;
+      double longitude = options.longitude + east / (radius * cos_centre) / degree;
+      if (longitude < -180.0) longitude += 360.0;
+      if (longitude >= 180.0) longitude -= 360.0;
+      const PointSample s = sampler.sample(latitude, longitude, cell);
+      const std::size_t c =
+          static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(i);
+      elevation[c] = static_cast<float>(s.ground);
+      if (s.type == SurfaceType::sea) {
+        sea[c] = 1;
+        ++sea_cells;
+      } else if (s.type == SurfaceType::river) {
+        wet[c] = terrain::kFlowingWater;
+        ++river_cells;
+      }
+    }
+  }
+  const terrain::ElevationGrid grid{n, n, cell, elevation, std::nullopt, sea, wet};
+  terrain::Result<terrain::Geomorphometry> figures = terrain::analyze(grid, options.analysis);
+  if (!figures) return figures.error();
+  nlohmann::json out = terrain::to_json(*figures);
+  out["input"] = {{"kind", "planet"},
+                  {"planet_id", planet->id()},
+                  {"latitude", options.latitude},
+                  {"longitude", options.longitude},
+                  {"cell_size_m", cell},
+                  {"level", planet->level_for_spacing(cell)},
+                  {"sea_cells", sea_cells},
+                  {"river_cells", river_cells}};
+  if (options.cell_size == 0.0) out["input"]["zoom"] = options.zoom;
+  return out;
+}
+
+}  // namespace planet

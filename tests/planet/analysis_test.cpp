@@ -1,0 +1,100 @@
+// Geomorphometry of planets (planet/analysis.hpp): the scene figures over a square of a planet,
+// sea as outlets, reproducible, and bad options refused naming the field.
+#include "planet/analysis.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+namespace planet {
+namespace {
+
+const std::shared_ptr<const Planet>& default_planet() {
+  static const std::shared_ptr<const Planet> planet = [] {
+    PlanetDefinition d;
+    d.seed = 20110627;
+    d.land_fraction = 0.35;
+    d.max_river_altitude = 4500;
+    d.max_mountain_altitude = 8000;
+    return Planet::create(d);
+  }();
+  return planet;
+}
+
+PlanetAnalysisOptions around(double latitude, double longitude, int size, int zoom) {
+  PlanetAnalysisOptions o;
+  o.latitude = latitude;
+  o.longitude = longitude;
+  o.size = size;
+  o.zoom = zoom;
+  return o;
+}
+
+TEST(PlanetAnalysis, MeasuresLandWithTheSceneFigures) {
+  // Inland on the default planet's equatorial continent (the viewer's low view).
+  const auto figures = analyze_planet(default_planet(), around(6.5, 40.0, 96, 11));
+  ASSERT_TRUE(figures) << figures.error().message;
+  const nlohmann::json& f = *figures;
+  EXPECT_EQ(f["input"]["kind"], "planet");
+  EXPECT_EQ(f["input"]["planet_id"], default_planet()->id());
+  EXPECT_NEAR(f["input"]["cell_size_m"].get<double>(), default_planet()->ground_spacing(11, 256),
+              1e-9);
+  EXPECT_EQ(f["grid"]["width"], 96);
+  EXPECT_EQ(f["land_cells"], 96 * 96);
+  EXPECT_GT(f["elevation_m"]["min"].get<double>(), 0.0);
+  EXPECT_GE(f["pits"]["share"].get<double>(), 0.0);
+  EXPECT_GT(f["channels"]["cells"].get<int>(), 0);
+}
+
+TEST(PlanetAnalysis, SeaIsWaterNotLand) {
+  // A square across the coast north-east of the equatorial continent, 9.8 km apart: some sea,
+  // some land.
+  const auto figures = analyze_planet(default_planet(), around(8.5, 43.0, 64, 3));
+  ASSERT_TRUE(figures) << figures.error().message;
+  const auto sea = (*figures)["input"]["sea_cells"].get<std::int64_t>();
+  EXPECT_GT(sea, 0);
+  EXPECT_LT(sea, 64 * 64);
+  EXPECT_EQ((*figures)["land_cells"].get<std::int64_t>() + sea, 64 * 64);
+}
+
+TEST(PlanetAnalysis, IsReproducible) {
+  PlanetAnalysisOptions o = around(20.0, 30.0, 48, 0);
+  o.cell_size = 500.0;
+  const auto a = analyze_planet(default_planet(), o);
+  const auto b = analyze_planet(default_planet(), o);
+  ASSERT_TRUE(a && b);
+  EXPECT_EQ(a->dump(), b->dump());
+  EXPECT_EQ((*a)["input"]["cell_size_m"], 500.0);
+  EXPECT_FALSE((*a)["input"].contains("zoom"));
+}
+
+// Bad options, each refused naming its field.
+TEST(PlanetAnalysis, RefusesBadOptionsNamingTheField) {
+  const struct {
+    PlanetAnalysisOptions options;
+    const char* pointer;
+  } cases[] = {
+      {around(86.0, 0.0, 64, 8), "/latitude"},
+      {around(NAN, 0.0, 64, 8), "/latitude"},
+      {around(0.0, 181.0, 64, 8), "/longitude"},
+      {around(0.0, 0.0, 1, 8), "/size"},
+      {around(0.0, 0.0, 5000, 8), "/size"},
+      {around(0.0, 0.0, 64, -1), "/zoom"},
+      {around(0.0, 0.0, 64, 99), "/zoom"},
+      {around(0.0, 0.0, 2048, 0), "/size"},  // a quarter of the planet: not a plane
+  };
+  for (const auto& c : cases) {
+    const auto result = analyze_planet(default_planet(), c.options);
+    ASSERT_FALSE(result) << c.pointer;
+    EXPECT_EQ(result.error().pointer, c.pointer);
+  }
+  PlanetAnalysisOptions bad_cell = around(0.0, 0.0, 64, 8);
+  bad_cell.cell_size = -3.0;
+  EXPECT_EQ(analyze_planet(default_planet(), bad_cell).error().pointer, "/cell_size");
+  bad_cell.cell_size = NAN;
+  EXPECT_EQ(analyze_planet(default_planet(), bad_cell).error().pointer, "/cell_size");
+}
+
+}  // namespace
+}  // namespace planet
