@@ -14,10 +14,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "terrain/evaluate.hpp"
+#include "terrain/program.hpp"
 #include "terrain/sphere_trace.hpp"
 
 #include "example_scenes.hpp"
@@ -106,6 +108,11 @@ void BM_TracedPicture(benchmark::State& state, const char* name, bool lit) {
   options.shadows = lit;
   options.occlusion = lit;
   options.material = l.scene.material;
+  std::optional<WaterRaster> water;
+  if (l.scene.water) {
+    water = water_raster(compile_water(l.scene).value(), l.scene.area());
+    options.water = &*water;
+  }
   std::int64_t steps = 0;
   for (auto _ : state) {
     const Picture picture = render(l.program, l.scene.area(), camera, options);

@@ -279,6 +279,16 @@ int cmd_render(const Args& args) {
   options.shadows = !args.has("--no-shadows");
   options.occlusion = !args.has("--no-occlusion");
   options.material = scene.material;
+  std::optional<WaterRaster> water;
+  if (scene.water) {
+    Result<Program> water_program = compile_water(scene);
+    if (!water_program) {
+      std::cerr << "terrain render: /water: " << water_program.error().message << "\n";
+      return 1;
+    }
+    water = water_raster(*water_program, area);
+    options.water = &*water;
+  }
   if (args.has("--water"))
     options.water_level = static_cast<float>(parse_number(args.get("--water", "0")).value_or(-1e9));
   options.progress = progress_bar;

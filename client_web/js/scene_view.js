@@ -30,6 +30,7 @@ ${defines}
 uniform usampler2D u_code;    // one instruction (uvec4) per texel
 uniform usampler2D u_pool;    // pool words as bits
 uniform sampler2D u_bounds;   // terrain::LipschitzGrid::pack()
+uniform sampler2D u_water;    // terrain::WaterRaster::surface (one texel when there is none)
 uniform uint u_program_size;
 
 ivec2 texel_of(uint i) { return ivec2(int(i & ${TEXTURE_WIDTH - 1}u), int(i >> ${Math.log2(TEXTURE_WIDTH)}u)); }
@@ -38,6 +39,7 @@ uint fetch_pool_uint(uint i) { return texelFetch(u_pool, texel_of(i), 0).r; }
 float fetch_pool(uint i) { return uintBitsToFloat(fetch_pool_uint(i)); }
 uint program_size() { return u_program_size; }
 float fetch_bounds(uint i) { return texelFetch(u_bounds, texel_of(i), 0).r; }
+float fetch_water(uint i) { return texelFetch(u_water, texel_of(i), 0).r; }
 `;
 }
 
@@ -59,6 +61,8 @@ uniform float u_t_max;
 uniform float u_water_level;
 uniform float u_span;
 uniform vec3 u_sun;
+uniform vec4 u_water_area;
+uniform int u_water_size;
 
 layout(location = 0) out vec4 out_colour;
 layout(location = 1) out vec4 out_depth;
@@ -67,7 +71,8 @@ void main() {
   TraceCamera camera = TraceCamera(u_eye, u_forward, u_right, u_up, u_tan_half, u_aspect, u_size);
   TraceSetup setup = TraceSetup(u_area.xy, u_area.zw, u_elevation.x, u_elevation.y, u_epsilon,
                                 u_max_steps, u_initial_step, u_lod_per_metre, u_t_max, true,
-                                u_water_level, u_span, u_sun, true, true);
+                                u_water_level, u_span, u_sun, true, true, u_water_area,
+                                u_water_size);
   // Pixel centres with y = 0 at the top, as terrain::Camera counts them.
   vec2 pixel = vec2(gl_FragCoord.x, u_size.y - gl_FragCoord.y);
   TracePixel result = trace_pixel(camera, setup, pixel);
@@ -138,6 +143,8 @@ export class SceneView {
     const code = new Uint32Array(decodeBase64(bundle.code).buffer);
     const pool = new Uint32Array(decodeBase64(bundle.pool).buffer);
     const bounds = new Float32Array(decodeBase64(bundle.bounds).buffer);
+    // The scene's water layer as the tracers look it up (terrain::WaterRaster), if it has one.
+    const water = bundle.water ? new Float32Array(decodeBase64(bundle.water.surface).buffer) : new Float32Array(1);
     for (const [, t] of this.textures ?? []) gl.deleteTexture(t);
     this.bundle = bundle;
     this.programSize = code.length / 4;
@@ -145,6 +152,7 @@ export class SceneView {
       ['u_code', dataTexture(gl, code, { width: TEXTURE_WIDTH, format: 'rgba32ui' })],
       ['u_pool', dataTexture(gl, pool, { width: TEXTURE_WIDTH, format: 'r32ui' })],
       ['u_bounds', dataTexture(gl, bounds, { width: TEXTURE_WIDTH, format: 'r32f' })],
+      ['u_water', dataTexture(gl, water, { width: TEXTURE_WIDTH, format: 'r32f' })],
     ];
   }
 
@@ -288,6 +296,9 @@ export class SceneView {
     gl.uniform1f(u.u_water_level, b.water_level);
     gl.uniform1f(u.u_span, b.span);
     gl.uniform3fv(u.u_sun, b.sun);
+    const water = this.bundle.water;
+    gl.uniform4fv(u.u_water_area, water ? water.area : [0, 0, 1, 1]);
+    gl.uniform1i(u.u_water_size, water ? water.size : 0);
     // The scene's material, packed by the server as its tracers read it (terrain::pack_material).
     gl.uniform1fv(u['u_material[0]'], new Float32Array(this.bundle.material));
     gl.bindVertexArray(this.vao);

@@ -24,3 +24,6 @@ uint program_size() { return u_program_size; }
 // The sphere tracer's Lipschitz grid (terrain::LipschitzGrid::pack()); bound only when tracing.
 layout(std430, binding = 4) readonly buffer TraceBounds { float trace_bounds[]; };
 float fetch_bounds(uint i) { return trace_bounds[i]; }
+// The scene's water raster (terrain::WaterRaster::surface); bound only when tracing.
+layout(std430, binding = 7) readonly buffer TraceWater { float trace_water[]; };
+float fetch_water(uint i) { return trace_water[i]; }

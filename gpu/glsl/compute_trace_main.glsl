@@ -39,6 +39,8 @@ uniform float u_span;
 uniform vec3 u_sun;
 uniform int u_shadows;
 uniform int u_occlusion;
+uniform vec4 u_water_area;
+uniform int u_water_size;
 
 void store_trace(uint at, TraceState s) {
   trace_states[at] = uvec4(floatBitsToUint(s.t), floatBitsToUint(s.hi), floatBitsToUint(s.delta),
@@ -81,7 +83,7 @@ void main() {
   TraceSetup setup = TraceSetup(u_area.xy, u_area.zw, u_elevation.x, u_elevation.y, u_epsilon,
                                 u_max_steps, u_initial_step, u_lod_per_metre, u_t_max,
                                 u_accelerated != 0, u_water_level, u_span, u_sun,
-                                u_shadows != 0, u_occlusion != 0);
+                                u_shadows != 0, u_occlusion != 0, u_water_area, u_water_size);
   vec2 pixel = vec2(float(i % width) + 0.5, float(i / width) + 0.5);
   vec3 direction = trace_ray_direction(camera, pixel);
   if (u_phase == 0) {

@@ -6,8 +6,8 @@
 //
 // Needs, before it: the shared GLSL (portable_math, noise, nodes, interpreter), material.glsl
 // and lighting.glsl (which trace_glsl() puts first) and from the prelude fetch_bounds(i), the
-// floats of terrain::LipschitzGrid::pack() (a storage buffer on the server; a texture in the
-// browser). It declares no uniform or buffer and no entry point: the
+// floats of terrain::LipschitzGrid::pack(), and fetch_water(i), those of
+// terrain::WaterRaster::surface (storage buffers on the server; textures in the browser). It declares no uniform or buffer and no entry point: the
 // caller fills TraceCamera and TraceSetup (from uniforms) and calls trace_pixel. GLSL ES 3.00
 // compatible (TERRAIN_PRECISE may be empty there; the browser then rounds like its GPU does).
 
@@ -39,6 +39,8 @@ struct TraceSetup {
   vec3 sun;    // terrain::sun_direction()
   bool shadows;    // RenderOptions::shadows
   bool occlusion;  // RenderOptions::occlusion
+  vec4 water_area;  // the water raster's area (lo.x, lo.y, hi.x, hi.y) and cells per side (0:
+  int water_size;   // no water layer)
 };
 
 struct TracePixel {
@@ -232,16 +234,30 @@ const float kShadowLift = 2.0;
 const float kVisibility = 2.5;  // of the traced area's larger side
 
 // The colour of a hit (shade() in sphere_trace.cpp): material, sun and sky light, water, air.
-vec3 trace_shade(TraceSetup s, Field field, float z, vec3 direction, float t, float sun_visible,
+// terrain::water_surface_at: the water raster's cell under (x, y), or kNoWaterSurface.
+float trace_water_surface(TraceSetup s, float x, float y) {
+  const float kNoWaterSurface = -1e30;
+  if (s.water_size == 0) return kNoWaterSurface;
+  float n = float(s.water_size);
+  TERRAIN_PRECISE float u = (x - s.water_area.x) / (s.water_area.z - s.water_area.x) * n;
+  TERRAIN_PRECISE float v = (y - s.water_area.y) / (s.water_area.w - s.water_area.y) * n;
+  if (!(u >= 0.0 && u < n && v >= 0.0 && v < n)) return kNoWaterSurface;
+  return fetch_water(uint(int(v) * s.water_size + int(u)));
+}
+
+vec3 trace_shade(TraceSetup s, Field field, vec3 p, vec3 direction, float t, float sun_visible,
                  float sky_visible) {
+  float z = p.z;
   vec3 n = trace_normalise(vec3(-field.fx, -field.fy, 1.0));
   TERRAIN_PRECISE float nz2 = n.z * n.z;
   TERRAIN_PRECISE float slope = sqrt(1.0 - min(1.0, nz2));  // sine of the slope angle
   TERRAIN_PRECISE float width = s.z_hi - s.z_lo;
   TERRAIN_PRECISE float height = width > 0.0 ? (z - s.z_lo) / width : 0.5;
   float northness = material_northness(field.fx, field.fy);
-  bool water = z < s.water_level;
-  TERRAIN_PRECISE float above = z - s.water_level;
+  // The picture's water level, or the scene's water layer above it.
+  float water_top = max(s.water_level, trace_water_surface(s, p.x, p.y));
+  bool water = z < water_top;
+  TERRAIN_PRECISE float above = z - water_top;
   float shore = water ? 0.0 : 1.0 - material_ramp(above, 0.0, material_shore_band(s.z_lo, s.z_hi));
   vec3 ground = material_albedo(height, slope, northness, shore, water, 0.0);
   vec3 colour = lighting_lit_surface(ground, n, s.sun, sun_visible, sky_visible);
@@ -378,7 +394,7 @@ TracePixel pixel_finish(TraceSetup s, vec3 origin, vec3 direction, PixelTrace px
     }
     TERRAIN_PRECISE float sky_visible = s.occlusion ? 1.0 - px.horizon_sum / 4.0 : 1.0;
     out_pixel.colour =
-        trace_shade(s, px.surface, p.z, direction, px.primary.t, sun_visible, sky_visible);
+        trace_shade(s, px.surface, p, direction, px.primary.t, sun_visible, sky_visible);
     out_pixel.depth = px.primary.t;
   }
   return out_pixel;

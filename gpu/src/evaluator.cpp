@@ -133,7 +133,7 @@ struct TraceShader {
         right = -1, up = -1, tan_half = -1, aspect = -1, size = -1, area = -1, elevation = -1,
         epsilon = -1, max_steps = -1, initial_step = -1, lod_per_metre = -1, t_max = -1,
         accelerated = -1, water_level = -1, span = -1, sun = -1, shadows = -1, occlusion = -1,
-        material = -1;
+        material = -1, water_area = -1, water_size = -1;
 };
 
 // A LipschitzGrid uploaded for one (program, area): built on the CPU once, reused by later
@@ -200,6 +200,7 @@ struct GpuEvaluator::State {
   GLuint trace_states = 0;
   std::size_t trace_states_bytes = 0;
   GLuint trace_active = 0;
+  GLuint trace_water = 0;  // the picture's WaterRaster, replaced by each picture
 
   ~State() {
     for (auto& [key, s] : shaders) glDeleteProgram(s.program);
@@ -213,6 +214,7 @@ struct GpuEvaluator::State {
     glDeleteBuffers(1, &results);
     glDeleteBuffers(1, &trace_states);
     glDeleteBuffers(1, &trace_active);
+    glDeleteBuffers(1, &trace_water);
   }
 };
 
@@ -318,6 +320,7 @@ terrain::Result<std::unique_ptr<GpuEvaluator>> GpuEvaluator::create(const GpuOpt
   glGenBuffers(1, &out->state_->results);
   glGenBuffers(1, &out->state_->trace_states);
   out->state_->trace_active = make_buffer(nullptr, 0);
+  out->state_->trace_water = make_buffer(nullptr, 0);
   const std::string& renderer = out->context_->renderer();
   out->state_->loop_limited = renderer.find("llvmpipe") != std::string::npos ||
                               renderer.find("softpipe") != std::string::npos;
@@ -703,6 +706,8 @@ terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& p
     s.shadows = at("u_shadows");
     s.occlusion = at("u_occlusion");
     s.material = at("u_material");
+    s.water_area = at("u_water_area");
+    s.water_size = at("u_water_size");
     found = st.trace_shaders.emplace(uploaded.shader_key, s).first;
   }
   found->second.last_used = ++st.shader_clock;
@@ -732,6 +737,14 @@ terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& p
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, bounds_buffer);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, st.trace_states);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, st.trace_active);
+  const terrain::WaterRaster* water = options.water;
+  if (water != nullptr && water->size > 0) {
+    glBindBuffer(GL_SHADER_STORAGE_BUFFER, st.trace_water);
+    glBufferData(GL_SHADER_STORAGE_BUFFER,
+                 static_cast<GLsizeiptr>(water->surface.size() * sizeof(float)),
+                 water->surface.data(), GL_STREAM_DRAW);
+  }
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, st.trace_water);
   glUniform1ui(shader.program_size, static_cast<GLuint>(program.code.size()));
   glUniform1ui(shader.count, static_cast<GLuint>(pixels));
   glUniform1i(shader.budget, budget);
@@ -757,6 +770,13 @@ terrain::Result<terrain::Picture> GpuEvaluator::render(const terrain::Program& p
   glUniform1i(shader.occlusion, options.occlusion ? 1 : 0);
   const terrain::PackedMaterial material = terrain::pack_material(options.material);
   glUniform1fv(shader.material, static_cast<GLsizei>(material.size()), material.data());
+  if (water != nullptr && water->size > 0) {
+    glUniform4f(shader.water_area, water->area.lo.x, water->area.lo.y, water->area.hi.x,
+                water->area.hi.y);
+    glUniform1i(shader.water_size, water->size);
+  } else {
+    glUniform1i(shader.water_size, 0);
+  }
 
   // One phase over every pixel, in as many dispatches as the group count limit asks.
   const std::size_t per_dispatch = static_cast<std::size_t>(st.max_groups) * kWorkgroupSize;

@@ -133,6 +133,12 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
       [=, this, source = loaded.source, reply = job.reply](
           const std::atomic<bool>& abandoned) mutable -> terrain::Result<CachedProduct, Response> {
     options.cancel = &abandoned;
+    // The scene's water layer, drawn as every evaluator draws it (terrain::WaterRaster).
+    std::optional<terrain::WaterRaster> water;
+    if (source->water) {
+      water = terrain::water_raster(*source->water, area);
+      options.water = &*water;
+    }
     // The GPU tracer when the server has a GPU backend; the CPU when there is none or it fails
     // (unsupported program, lost context, llvmpipe's loop limit), and the response says which.
     terrain::Picture picture;
@@ -257,6 +263,14 @@ Outcome App::trace_bundle(const Request& request, const LoadedVersion& loaded, b
                 {"target", {camera.target.x, camera.target.y, camera.target.z}},
                 {"fov", camera.vertical_fov_degrees}}}};
     if (program_glsl) body["program_glsl"] = *program_glsl;
+    if (source->water) {
+      // The scene's water layer as the tracers look it up (terrain::WaterRaster).
+      const terrain::WaterRaster water = terrain::water_raster(*source->water, area);
+      body["water"] = {
+          {"area", {water.area.lo.x, water.area.lo.y, water.area.hi.x, water.area.hi.y}},
+          {"size", water.size},
+          {"surface", terrain::base64(water.surface.data(), water.surface.size() * sizeof(float))}};
+    }
     // The scene's material as the tracer's uniform u_material reads it (terrain::pack_material).
     const terrain::PackedMaterial material = terrain::pack_material(scene_material);
     body["material"] = std::vector<float>(material.begin(), material.end());

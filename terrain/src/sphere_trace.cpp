@@ -261,20 +261,54 @@ constexpr float kVisibility = 2.5f;
 /// The colour of a hit with unit normal `n`: material, sun and sky light, water, then the air in
 /// front of it.
 Rgb shade(const FieldSample& s, Vec3 n, Vec3 sun, const Ray& ray, float t, float z,
-          const Interval& range, float water_level, float sun_visible, float sky_visible,
-          float span, const PackedMaterial& material) {
+          const Interval& range, float water_top, float sun_visible, float sky_visible, float span,
+          const PackedMaterial& material) {
   MaterialInput input;
   input.slope = std::sqrt(1.0f - std::min(1.0f, n.z * n.z));  // sine of the slope angle
   input.height = range.width() > 0 ? (z - range.lo) / range.width() : 0.5f;
   input.northness = northness(s.elevation_gradient.x, s.elevation_gradient.y);
-  input.water = z < water_level;
-  input.shore = input.water ? 0.0f : 1.0f - ramp(z - water_level, 0.0f, shore_band_for(range));
+  input.water = z < water_top;
+  input.shore = input.water ? 0.0f : 1.0f - ramp(z - water_top, 0.0f, shore_band_for(range));
   Rgb colour = lit_surface(material_albedo(input, material), n, sun, sun_visible, sky_visible);
   if (input.water) colour = water_surface(colour, ray.direction, sun, sun_visible);
   return aerial_perspective(colour, ray.direction, t, kVisibility * span, sun);
 }
 
 }  // namespace
+
+WaterRaster water_raster(const Program& water, const Box2& area, int size) {
+  WaterRaster raster;
+  raster.area = area;
+  raster.size = size;
+  raster.surface.assign(static_cast<std::size_t>(size) * static_cast<std::size_t>(size),
+                        kNoWaterSurface);
+  Evaluator evaluator(water);
+  const float cell_x = area.size().x / static_cast<float>(size);
+  const float cell_y = area.size().y / static_cast<float>(size);
+  for (int j = 0; j < size; ++j) {
+    for (int i = 0; i < size; ++i) {
+      const Vec2 p{area.lo.x + (static_cast<float>(i) + 0.5f) * cell_x,
+                   area.lo.y + (static_cast<float>(j) + 0.5f) * cell_y};
+      const FieldSample s = evaluator.sample(p, std::max(cell_x, cell_y));
+      if (s.weight >= 0.5f) {
+        raster.surface[static_cast<std::size_t>(j) * static_cast<std::size_t>(size) +
+                       static_cast<std::size_t>(i)] = s.elevation;
+      }
+    }
+  }
+  return raster;
+}
+
+float water_surface_at(const WaterRaster& raster, float x, float y) {
+  if (raster.size == 0) return kNoWaterSurface;
+  // The GLSL twin (trace_water_surface) computes the same floats.
+  const auto n = static_cast<float>(raster.size);
+  const float u = (x - raster.area.lo.x) / (raster.area.hi.x - raster.area.lo.x) * n;
+  const float v = (y - raster.area.lo.y) / (raster.area.hi.y - raster.area.lo.y) * n;
+  if (!(u >= 0.0f && u < n && v >= 0.0f && v < n)) return kNoWaterSurface;
+  const auto i = static_cast<std::size_t>(u), j = static_cast<std::size_t>(v);
+  return raster.surface[j * static_cast<std::size_t>(raster.size) + i];
+}
 
 float sky_visibility(Evaluator& evaluator, Vec3 position, float spacing, float radius) {
   // Sample i looks east, north, west, south; the GLSL twin takes them in the same order so that
@@ -372,8 +406,14 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
                                          spacing, kSkyVisibilityRadius * span);
             pixel_steps += kSkyVisibilitySamples;
           }
-          color = shade(s, n, sun, ray, hit.t, hit.position.z, domain.elevation,
-                        options.water_level, sun_visible, sky_visible, span, material);
+          // The water here: the picture's level, or the scene's water layer above it.
+          const float water_top =
+              std::max(options.water_level,
+                       options.water != nullptr
+                           ? water_surface_at(*options.water, hit.position.x, hit.position.y)
+                           : kNoWaterSurface);
+          color = shade(s, n, sun, ray, hit.t, hit.position.z, domain.elevation, water_top,
+                        sun_visible, sky_visible, span, material);
           picture.depth[at] = hit.t;
         }
         steps += pixel_steps;

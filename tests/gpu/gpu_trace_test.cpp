@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -73,6 +74,11 @@ TEST_P(EveryExamplePictureOnGpu, MatchesTheCpuPicture) {
   options.threads = 2;
   options.water_level = loaded.program.base_elevation + 1.0f;  // water shading is compared too
   options.material = loaded.scene.material;
+  std::optional<terrain::WaterRaster> water;  // the scene's water layer, where it has one
+  if (loaded.scene.water) {
+    water = terrain::water_raster(terrain::compile_water(loaded.scene).value(), area);
+    options.water = &*water;
+  }
   const terrain::Picture cpu = terrain::render(loaded.program, area, camera, options);
   terrain::Result<terrain::Picture> gpu = tracer().render(loaded.program, area, camera, options);
   ASSERT_TRUE(gpu.ok()) << gpu.error().message;
@@ -214,6 +220,37 @@ TEST(GpuPicture, TakesTheMaterialOfItsOptions) {
   }
   EXPECT_GE(static_cast<double>(same), kAgreeingShare * static_cast<double>(cpu.rgb.size()));
   EXPECT_GT(changed, cpu.rgb.size() / 4) << "the material changed the picture";
+}
+
+TEST(GpuPicture, DrawsTheScenesWaterLayerAsTheCpuDoes) {
+  // A plain with a pond in its water layer (tests/terrain/lighting_test.cpp's RenderWater).
+  const terrain::Scene scene = terrain::parse_scene_text(R"({"root": {"type": "disc",
+    "center": [0, 0], "radius": 2000, "elevation": 0}, "water": {"type": "disc",
+    "center": [0, 0], "radius": 1200, "elevation": 10}})")
+                                   .value();
+  const terrain::Program program = terrain::compile(scene).value();
+  const terrain::WaterRaster water =
+      terrain::water_raster(terrain::compile_water(scene).value(), scene.area(), 128);
+  terrain::Camera camera;
+  camera.width = 64;
+  camera.height = 48;
+  camera.position = {0.0f, -1500.0f, 2500.0f};
+  camera.target = {0.0f, 0.0f, 0.0f};
+  camera.vertical_fov_degrees = 60.0f;
+  terrain::RenderOptions options;
+  options.threads = 1;
+  const terrain::Picture dry = terrain::render(program, scene.area(), camera, options);
+  options.water = &water;
+  const terrain::Picture cpu = terrain::render(program, scene.area(), camera, options);
+  terrain::Result<terrain::Picture> gpu = tracer().render(program, scene.area(), camera, options);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().message;
+  std::size_t same = 0, wet = 0;
+  for (std::size_t i = 0; i < cpu.rgb.size(); ++i) {
+    if (std::abs(int{cpu.rgb[i]} - int{gpu->rgb[i]}) <= kColourTolerance) ++same;
+    if (cpu.rgb[i] != dry.rgb[i]) ++wet;
+  }
+  EXPECT_GE(static_cast<double>(same), kAgreeingShare * static_cast<double>(cpu.rgb.size()));
+  EXPECT_GT(wet, cpu.rgb.size() / 20) << "the pond shows";
 }
 
 TEST(GpuPicture, IsRefusedForAnEmptyPicture) {

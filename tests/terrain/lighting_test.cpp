@@ -4,7 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "field_checks.hpp"
+#include "terrain/program.hpp"
 #include "terrain/sphere_trace.hpp"
 
 namespace terrain {
@@ -148,6 +151,66 @@ TEST(RenderLighting, ShadowsFallBehindTheHillAndOnlyDarken) {
   EXPECT_GT(darker_east, 20);
   EXPECT_GT(darker_east, 4 * darker_west);
   EXPECT_GT(shadowed.total_steps, lit.total_steps);  // shadow rays are counted
+}
+
+TEST(WaterRaster, LooksAPointUpInTheCellUnderIt) {
+  WaterRaster raster;
+  raster.area = {{0.0f, 0.0f}, {4.0f, 4.0f}};
+  raster.size = 2;
+  raster.surface = {1.0f, 2.0f, 3.0f, kNoWaterSurface};
+  EXPECT_EQ(water_surface_at(raster, 0.5f, 0.5f), 1.0f);
+  EXPECT_EQ(water_surface_at(raster, 3.9f, 0.1f), 2.0f);
+  EXPECT_EQ(water_surface_at(raster, 1.0f, 2.0f), 3.0f);  // a cell's lower edge is in it
+  EXPECT_EQ(water_surface_at(raster, 3.0f, 3.0f), kNoWaterSurface);
+  EXPECT_EQ(water_surface_at(raster, 4.0f, 1.0f), kNoWaterSurface);  // outside
+  EXPECT_EQ(water_surface_at(raster, -0.1f, 1.0f), kNoWaterSurface);
+  EXPECT_EQ(water_surface_at(WaterRaster{}, 1.0f, 1.0f), kNoWaterSurface);
+}
+
+TEST(RenderWater, DrawsTheScenesWaterLayerWhereItStandsAboveTheGround) {
+  // A plain at 0 m with a pond 10 m deep in its water layer: a disc whose weight (Wyvill's
+  // fall-off over 1200 m) is at least 0.5 within 545 m of the origin.
+  const Scene scene = testing::parse_or_die(R"({"root": {"type": "disc", "center": [0, 0],
+    "radius": 2000, "elevation": 0}, "water": {"type": "disc", "center": [0, 0],
+    "radius": 1200, "elevation": 10}})");
+  const Program program = testing::compile_or_die(scene);
+  const Program water_program = compile_water(scene).value();
+  const WaterRaster water = water_raster(water_program, scene.area(), 128);
+  Camera camera;
+  camera.width = 80;
+  camera.height = 60;
+  camera.position = {0.0f, -1500.0f, 2500.0f};
+  camera.target = {0.0f, 0.0f, 0.0f};
+  camera.vertical_fov_degrees = 60.0f;
+  RenderOptions options;
+  options.threads = 1;
+  const Picture dry = render(program, scene.area(), camera, options);
+  options.water = &water;
+  const Picture wet = render(program, scene.area(), camera, options);
+  int pond = 0, shore = 0;
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const auto at = static_cast<std::size_t>(y * camera.width + x);
+      if (dry.depth[at] < 0.0f) continue;
+      const Ray ray = camera.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
+      const float px = ray.origin.x + dry.depth[at] * ray.direction.x;
+      const float py = ray.origin.y + dry.depth[at] * ray.direction.y;
+      const float r = std::hypot(px, py);
+      const bool changed = wet.rgb[3 * at] != dry.rgb[3 * at] ||
+                           wet.rgb[3 * at + 1] != dry.rgb[3 * at + 1] ||
+                           wet.rgb[3 * at + 2] != dry.rgb[3 * at + 2];
+      if (r < 450.0f) {
+        ++pond;
+        EXPECT_TRUE(changed) << "in the pond at " << px << ", " << py;
+        EXPECT_GT(wet.rgb[3 * at + 2], wet.rgb[3 * at]) << "water is blue";
+      } else if (r > 700.0f) {
+        ++shore;
+        EXPECT_FALSE(changed) << "beyond the pond and its beach at " << px << ", " << py;
+      }
+    }
+  }
+  EXPECT_GT(pond, 50);
+  EXPECT_GT(shore, 50);
 }
 
 }  // namespace

@@ -118,6 +118,24 @@ Vec3 sun_direction();
 float sky_visibility(Evaluator& evaluator, Vec3 position, float spacing, float radius);
 inline constexpr int kSkyVisibilitySamples = 4;
 
+/// A scene's water layer as pictures draw it: the water tree's surface where its weight is at
+/// least 0.5, sampled at the centres of a size × size grid of cells over `area` (at their
+/// spacing), kNoWaterSurface elsewhere. Every evaluator (render, the GPU tracer, the browser)
+/// looks a point up in the same cell (water_surface_at), so that they draw the same water.
+struct WaterRaster {
+  Box2 area;
+  int size = 0;
+  std::vector<float> surface;  ///< size × size, row-major from area.lo
+};
+inline constexpr float kNoWaterSurface = -1e30f;
+inline constexpr int kWaterRasterSize = 256;
+
+/// The raster of a compiled water tree (compile_water) over `area`.
+WaterRaster water_raster(const Program& water, const Box2& area, int size = kWaterRasterSize);
+
+/// The surface in the cell under (x, y), or kNoWaterSurface outside the raster or its water.
+float water_surface_at(const WaterRaster& raster, float x, float y);
+
 /// A shaded picture: an analytic sky, aerial perspective, the material model, sun light from
 /// exact gradients with soft shadows traced towards the sun, and sky light with occlusion.
 struct Picture {
@@ -133,9 +151,12 @@ struct Picture {
 struct RenderOptions {
   TraceOptions trace;
   float water_level = -1e9f;  ///< draw water below this elevation
-  bool shadows = true;        ///< trace a shadow ray towards the sun from every sunlit hit
-  bool occlusion = true;      ///< measure the sky each hit sees (sky_visibility)
-  Material material;          ///< the scene's (Scene::material)
+  /// The scene's water layer (water_raster), drawn where its surface lies above the ground;
+  /// null: none.
+  const WaterRaster* water = nullptr;
+  bool shadows = true;    ///< trace a shadow ray towards the sun from every sunlit hit
+  bool occlusion = true;  ///< measure the sky each hit sees (sky_visibility)
+  Material material;      ///< the scene's (Scene::material)
   int threads = 0;
   /// Called with the fraction done (0..1) from the calling thread; may be empty.
   std::function<void(float)> progress;
