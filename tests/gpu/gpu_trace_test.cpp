@@ -352,6 +352,8 @@ uint fetch_pool_uint(uint i) { return texelFetch(u_pool, texel(i, 4096), 0).r; }
 float fetch_pool(uint i) { return uintBitsToFloat(fetch_pool_uint(i)); }
 uint program_size() { return u_program_size; }
 float fetch_bounds(uint i) { return texelFetch(u_bounds, texel(i, 4096), 0).r; }
+uniform highp sampler2D u_water;
+float fetch_water(uint i) { return texelFetch(u_water, texel(i, 4096), 0).r; }
 )glsl";
   const std::string main = R"glsl(
 uniform vec3 u_eye;
@@ -361,7 +363,7 @@ void main() {
                                    vec3(0.0, 0.0, 1.0), 0.5, 1.5, vec2(640.0, 400.0));
   TraceSetup setup = TraceSetup(vec2(-1000.0), vec2(1000.0), 0.0, 500.0, 0.01, 4096, 10.0,
                                 0.001, 1e5, true, -1e9, 2000.0, vec3(0.0, 0.0, 1.0), true,
-                                true);
+                                true, vec4(-1000.0, -1000.0, 1000.0, 1000.0), 256);
   TracePixel p = trace_pixel(camera, setup, gl_FragCoord.xy);
   colour = vec4(p.colour, 1.0);
 }
