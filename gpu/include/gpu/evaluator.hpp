@@ -110,7 +110,8 @@ std::vector<float> prepare_pool(const terrain::Program& program);
 std::string_view shared_glsl();
 /// The material model (material.glsl), light and air (lighting.glsl) and the sphere tracer
 /// (trace.glsl) that shades with them, concatenated after shared_glsl(); besides the prelude's
-/// program access it needs fetch_bounds(i) over terrain::LipschitzGrid::pack().
+/// program access it needs fetch_bounds(i) over terrain::LipschitzGrid::pack() and
+/// fetch_water(i) over terrain::WaterRaster::surface.
 std::string_view trace_glsl();
 /// The material model and its lighting (material.glsl and lighting.glsl: the twins of
 /// terrain/material.hpp and terrain/lighting.hpp), for shaders that
