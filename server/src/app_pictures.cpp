@@ -183,7 +183,8 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
       bytes.media_type = "application/octet-stream";
       return bytes;
     }
-    auto png = terrain::encode_png_rgb8(picture.width, picture.height, picture.rgb.data());
+    auto png = terrain::encode_png_rgb8(picture.width, picture.height, picture.rgb.data(),
+                                        terrain::PngFilter::up);
     if (!png) {
       return problem(reply.shadow(), http::status::internal_server_error, "Encoding failed",
                      png.error().message);

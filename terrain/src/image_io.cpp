@@ -280,9 +280,19 @@ Status check_dimensions(int width, int height, const void* data) {
 // Encodes one image with the named OIIO writer into memory. Only the pixel-describing fields are
 // set; DateTime is pinned empty because the TIFF and OpenEXR writers otherwise stamp the current
 // time, which would make the bytes differ from one second to the next.
+struct EncodeOptions {
+  PngFilter png_filter = PngFilter::paeth;
+  int jpeg_quality = 0;  ///< 0: not a JPEG
+};
+
+// libpng's filter flags (png.h's PNG_FILTER_PAETH, PNG_FILTER_UP), which OIIO passes on.
+int png_filter_flags(PngFilter filter) {
+  return filter == PngFilter::up ? 0x20 : 0x80;
+}
+
 Result<std::vector<std::uint8_t>> encode_impl(const char* format, int width, int height,
                                               int channels, OIIO::TypeDesc type, const void* pixels,
-                                              int jpeg_quality = 0) {
+                                              const EncodeOptions& options = {}) {
   if (Status ok = check_dimensions(width, height, pixels); !ok) return ok.error();
   std::vector<unsigned char> bytes;
   OIIO::Filesystem::IOVecOutput proxy(bytes);
@@ -299,7 +309,10 @@ Result<std::vector<std::uint8_t>> encode_impl(const char* format, int width, int
   // tile within its 10 ms budget (docs/performance.md).
   spec.attribute("compression", "zip:1");
   spec.attribute("png:compressionLevel", 1);
-  if (jpeg_quality > 0) spec.attribute("compression", "jpeg:" + std::to_string(jpeg_quality));
+  spec.attribute("png:filter", png_filter_flags(options.png_filter));
+  if (options.jpeg_quality > 0) {
+    spec.attribute("compression", "jpeg:" + std::to_string(options.jpeg_quality));
+  }
   if (!out->open(std::string("memory.") + format, spec)) {
     return fail(std::string("cannot encode ") + format + ": " + output_message(out.get()));
   }
@@ -366,22 +379,25 @@ Result<std::vector<std::uint8_t>> encode_png16(int width, int height,
 }
 
 Result<std::vector<std::uint8_t>> encode_png_gray8(int width, int height,
-                                                   const std::uint8_t* samples) {
+                                                   const std::uint8_t* samples, PngFilter filter) {
   return guarded("cannot encode PNG", [&] {
-    return encode_impl("png", width, height, 1, OIIO::TypeDesc::UINT8, samples);
+    return encode_impl("png", width, height, 1, OIIO::TypeDesc::UINT8, samples, {filter});
   });
 }
 
-Result<std::vector<std::uint8_t>> encode_png_rgb8(int width, int height, const std::uint8_t* rgb) {
-  return guarded("cannot encode PNG",
-                 [&] { return encode_impl("png", width, height, 3, OIIO::TypeDesc::UINT8, rgb); });
+Result<std::vector<std::uint8_t>> encode_png_rgb8(int width, int height, const std::uint8_t* rgb,
+                                                  PngFilter filter) {
+  return guarded("cannot encode PNG", [&] {
+    return encode_impl("png", width, height, 3, OIIO::TypeDesc::UINT8, rgb, {filter});
+  });
 }
 
 Result<std::vector<std::uint8_t>> encode_jpeg_rgb8(int width, int height, const std::uint8_t* rgb,
                                                    int quality) {
   if (quality < 1 || quality > 100) return fail("JPEG quality must be 1..100");
   return guarded("cannot encode JPEG", [&] {
-    return encode_impl("jpeg", width, height, 3, OIIO::TypeDesc::UINT8, rgb, quality);
+    return encode_impl("jpeg", width, height, 3, OIIO::TypeDesc::UINT8, rgb,
+                       {.jpeg_quality = quality});
   });
 }
 
@@ -395,9 +411,10 @@ Status write_png16(const std::string& path, int width, int height, const std::ui
                  [&] { return write_bytes(path, encode_png16(width, height, samples)); });
 }
 
-Status write_png_rgb8(const std::string& path, int width, int height, const std::uint8_t* rgb) {
+Status write_png_rgb8(const std::string& path, int width, int height, const std::uint8_t* rgb,
+                      PngFilter filter) {
   return guarded("cannot write '" + path + "'",
-                 [&] { return write_bytes(path, encode_png_rgb8(width, height, rgb)); });
+                 [&] { return write_bytes(path, encode_png_rgb8(width, height, rgb, filter)); });
 }
 
 }  // namespace terrain

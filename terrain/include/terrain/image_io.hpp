@@ -51,13 +51,23 @@ Result<Raster> decode_heightfield(std::span<const std::uint8_t> bytes, std::stri
 
 /// Single-channel 32-bit float TIFF (deflate at level 1, the fastest), row 0 first.
 Result<std::vector<std::uint8_t>> encode_float_tiff(int width, int height, const float* samples);
+/// The one PNG row filter every row of an image gets. libpng's default tries all five on every
+/// row and keeps the smallest guess, which costs about a millisecond per 256² tile; one fixed
+/// filter chosen per kind of image gives the same size within a few percent (docs/performance.md).
+enum class PngFilter {
+  paeth,  ///< heights and other numeric images: what the trial picked on nearly every row anyway
+  up,     ///< shaded pictures: rows resemble the row above
+};
+
 /// Single-channel 16-bit greyscale PNG.
 Result<std::vector<std::uint8_t>> encode_png16(int width, int height, const std::uint16_t* samples);
 /// Single-channel 8-bit greyscale PNG.
 Result<std::vector<std::uint8_t>> encode_png_gray8(int width, int height,
-                                                   const std::uint8_t* samples);
+                                                   const std::uint8_t* samples,
+                                                   PngFilter filter = PngFilter::paeth);
 /// 8-bit RGB PNG; `rgb` holds width * height * 3 bytes, pixel-interleaved.
-Result<std::vector<std::uint8_t>> encode_png_rgb8(int width, int height, const std::uint8_t* rgb);
+Result<std::vector<std::uint8_t>> encode_png_rgb8(int width, int height, const std::uint8_t* rgb,
+                                                  PngFilter filter = PngFilter::paeth);
 
 /// 8-bit RGB baseline JPEG at `quality` (1..100), 4:2:0 chroma, no metadata.
 Result<std::vector<std::uint8_t>> encode_jpeg_rgb8(int width, int height, const std::uint8_t* rgb,
@@ -67,6 +77,7 @@ Result<std::vector<std::uint8_t>> encode_jpeg_rgb8(int width, int height, const 
 /// extension). The file holds exactly the bytes the matching encoder returns.
 Status write_float_tiff(const std::string& path, int width, int height, const float* samples);
 Status write_png16(const std::string& path, int width, int height, const std::uint16_t* samples);
-Status write_png_rgb8(const std::string& path, int width, int height, const std::uint8_t* rgb);
+Status write_png_rgb8(const std::string& path, int width, int height, const std::uint8_t* rgb,
+                      PngFilter filter = PngFilter::paeth);
 
 }  // namespace terrain

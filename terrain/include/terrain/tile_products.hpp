@@ -27,8 +27,9 @@ namespace terrain {
 /// material model's forest, scree, aspect-dependent snow line and shores (pictures, colour tiles).
 /// 4: pictures' soft shadows, sky occlusion, Rayleigh–Mie sky, aerial perspective and water.
 /// 5: material parameters: slope bands at whole degrees, a snow line lower towards planets' poles.
-/// 6: pictures draw the scene's water layer (terrain::WaterRaster).
-inline constexpr int kProductGeneration = 6;
+/// 6: pictures draw the scene's water layer (terrain::WaterRaster). 7: PNGs filter every row with
+/// one fixed filter (terrain::PngFilter) instead of libpng's per-row trial.
+inline constexpr int kProductGeneration = 7;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
