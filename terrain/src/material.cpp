@@ -9,10 +9,6 @@ Rgb mix(Rgb a, Rgb b, float t) {
   return {a.r + (b.r - a.r) * t, a.g + (b.g - a.g) * t, a.b + (b.b - a.b) * t};
 }
 
-float ramp(float x, float lo, float hi) {
-  return std::clamp((x - lo) / (hi - lo), 0.0f, 1.0f);
-}
-
 float northness(float east, float north) {
   const float steepness = std::sqrt(east * east + north * north);
   if (!(steepness > 0.0f)) return 0.0f;
@@ -68,20 +64,6 @@ Rgb material_albedo(const MaterialInput& input, const PackedMaterial& m) {
   ground = mix(ground, colour(kSnow), snow);
   ground = mix(ground, colour(kSand), input.shore * (1.0f - band(s, kSandSlope)));
   return ground;
-}
-
-Vec3 normalise(Vec3 v) {
-  const float l = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
-  return {v.x / l, v.y / l, v.z / l};
-}
-
-float sun_light(Vec3 normal, Vec3 sun) {
-  const float diffuse = std::max(0.0f, normal.x * sun.x + normal.y * sun.y + normal.z * sun.z);
-  return 0.30f + 0.75f * diffuse;
-}
-
-std::uint8_t colour_byte(float v) {
-  return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
 }
 
 }  // namespace terrain

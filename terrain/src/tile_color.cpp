@@ -76,9 +76,11 @@ Result<std::vector<std::uint8_t>> color_pixels(const HeightTile& tile,
       // The slope of the ground itself; the light sees it exaggerated by z_factor.
       const Vec3 normal = normalise({-tile.slope_east[i], -tile.slope_north[i], 1.0f});
       input.slope = std::sqrt(1.0f - std::min(1.0f, normal.z * normal.z));
+      // Without exaggeration the light sees the ground's own normal (the same numbers).
       const Vec3 lit =
-          input.water
-              ? Vec3{0.0f, 0.0f, 1.0f}
+          input.water ? Vec3{0.0f, 0.0f, 1.0f}
+          : z_factor == 1.0f
+              ? normal
               : normalise({-z_factor * tile.slope_east[i], -z_factor * tile.slope_north[i], 1.0f});
       const Rgb albedo = material_albedo(input, material);
       const float light = sun_light(lit, sun);
