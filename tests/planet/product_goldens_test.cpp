@@ -19,7 +19,8 @@ using terrain::TileScheme;
 TEST(ProductGoldens, TheDefaultPlanetMakesTheBytesOfItsGeneration) {
   auto definition = load_planet_file(TERRAIN_SOURCE_DIR "/config/planets/default.json");
   ASSERT_TRUE(definition.ok()) << definition.error().message;
-  PlanetTiles tiles(Planet::create(*definition));
+  const std::shared_ptr<const Planet> planet = Planet::create(*definition);
+  PlanetTiles tiles(planet);
   // A continent from afar, a coast at zoom 6 and land at zoom 9 (the geographic grid), and the
   // Web Mercator tiles MapLibre asks for.
   const std::pair<TileScheme, TileAddress> places[] = {
@@ -29,17 +30,18 @@ TEST(ProductGoldens, TheDefaultPlanetMakesTheBytesOfItsGeneration) {
       {TileScheme::webmercator, {5, 17, 11}},
   };
   terrain::testing::ProductHashes made;
+  const terrain::testing::InputHashes inputs{{"default", planet->id()}};
   for (const auto& [scheme, a] : places) {
     for (const TileFormatInfo& info : terrain::tile_formats()) {
       if (info.mesh && scheme != TileScheme::geographic) continue;
-      const std::string name = terrain::testing::product_name(scheme, a, info);
+      const std::string name = "default/" + terrain::testing::product_name(scheme, a, info);
       Result<terrain::Product> product = tiles.make(scheme, a, info.format, {});
       ASSERT_TRUE(product.ok()) << name << ": " << product.error().message;
       made[name] = terrain::testing::hash_of(product->bytes);
     }
   }
   terrain::testing::check_product_goldens(
-      TERRAIN_SOURCE_DIR "/tests/planet/goldens/planet_products.json", made);
+      TERRAIN_SOURCE_DIR "/tests/planet/goldens/planet_products.json", inputs, made);
 }
 
 }  // namespace

@@ -33,4 +33,13 @@ inline TileSource example_source(const std::string& name) {
   return std::move(source).value();
 }
 
+/// An example scene's content hash ("sha256:…"), without baking its grids.
+inline std::string example_scene_hash(const std::string& name) {
+  ParseOptions options;
+  options.bake = false;
+  Result<Scene> scene = load_scene_file((kExampleScenes / (name + ".json")).string(), options);
+  if (!scene) throw std::runtime_error(name + ": " + scene.error().message);
+  return scene->hash;
+}
+
 }  // namespace terrain::testing

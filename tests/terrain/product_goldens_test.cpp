@@ -21,7 +21,9 @@ TileAddress middle_tile(const TileSource& source, TileScheme scheme, int z) {
 
 TEST(ProductGoldens, EveryExampleSceneMakesTheBytesOfItsGeneration) {
   ProductHashes made;
+  testing::InputHashes inputs;
   for (const std::string& scene : testing::example_scene_names()) {
+    inputs[scene] = testing::example_scene_hash(scene);
     ProductMaker maker(testing::example_source(scene));
     const TileSource& source = maker.source();
     // Each format where clients ask for it: meshes and images in the scene's own grid, images
@@ -52,7 +54,7 @@ TEST(ProductGoldens, EveryExampleSceneMakesTheBytesOfItsGeneration) {
     }
   }
   testing::check_product_goldens(TERRAIN_SOURCE_DIR "/tests/terrain/goldens/scene_products.json",
-                                 made);
+                                 inputs, made);
 }
 
 }  // namespace
