@@ -200,7 +200,8 @@ int run(const Args& args) {
                                 {"mouths", s.mouths},
                                 {"river_vertices", s.river_vertices},
                                 {"endorheic", s.endorheic},
-                                {"longest_river_km", s.longest_river / 1000.0}}
+                                {"longest_river_km", s.longest_river / 1000.0},
+                                {"largest_drainage_area_km2", s.largest_drainage_area / 1e6}}
                      .dump(2)
               << "\n";
     return 0;

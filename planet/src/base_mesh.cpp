@@ -364,12 +364,18 @@ class Classifier {
         bfs.push_back(v);
       }
     }
+    // Drainage areas: each vertex drains its share of the sphere (the base level's vertices
+    // are spread evenly) and everything upstream.
+    const double share = kFourPi * radius * radius / static_cast<double>(nv);
+    std::vector<double> area(nv, 0.0);
     for (std::size_t i = bfs.size(); i-- > 0;) {
       const std::uint32_t v = bfs[i];
       longest[v] = std::max(longest[v], distance[v]);
+      area[v] += share;
       if (down_[v] >= 0) {
         const auto u = static_cast<std::size_t>(down_[v]);
         longest[u] = std::max(longest[u], longest[v]);
+        area[u] += area[v];
       }
     }
     const double sea = def_.sea_level;
@@ -419,6 +425,8 @@ class Classifier {
       }
       x.flags =
           static_cast<std::uint8_t>(kind_[v] == kCoast ? (kCoast | kRiver) : (kLand | kRiver));
+      x.drainage_area = static_cast<float>(area[v]);
+      mesh_.stats.largest_drainage_area = std::max(mesh_.stats.largest_drainage_area, area[v]);
       if (kind_[v] == kLand) ++mesh_.stats.river_vertices;
       Vec3d direction{0, 0, 0};
       if (down_[v] >= 0) {
@@ -550,6 +558,7 @@ std::string BaseMesh::hash() const {
     feed(v.tangent.data(), sizeof(float) * 3);
     feed(&v.flags, 1);
     feed(&v.detail, sizeof v.detail);
+    feed(&v.drainage_area, sizeof v.drainage_area);
   }
   for (const Tri& t : hierarchy.tris) {
     feed(t.v.data(), sizeof(std::uint32_t) * 3);

@@ -38,7 +38,13 @@ std::vector<std::uint8_t> planet_picture_rgb(const std::shared_ptr<const Planet>
   std::vector<double> ground(static_cast<std::size_t>(gw) * gh);
   std::vector<std::uint8_t> type(ground.size());
   std::vector<std::uint8_t> river(ground.size());
-  const double river_width = 0.6 * planet->ground_spacing(0, height);
+  // Strokes as wide as hydraulic geometry has channels (w ∝ Q^0.5, Q ∝ drainage area), scaled
+  // so the largest river is 3 pixels wide; the thinnest keep a quarter pixel on either side.
+  const double pixel = planet->ground_spacing(0, height);
+  const double largest = std::max(planet->base_mesh().stats.largest_drainage_area, 1.0);
+  const auto half_width = [&](double drainage_area) {
+    return pixel * std::clamp(1.5 * std::sqrt(drainage_area / largest), 0.25, 1.5);
+  };
   auto rows = [&](int from, int to) {
     Sampler sampler(planet);
     for (int r = from; r < to; ++r) {
@@ -50,7 +56,7 @@ std::vector<std::uint8_t> planet_picture_rgb(const std::shared_ptr<const Planet>
         const PointSample s = sampler.sample(lat, lon, spacing);
         const std::size_t at = static_cast<std::size_t>(r) * gw + static_cast<std::size_t>(c);
         ground[at] = s.ground;
-        river[at] = s.river_distance < river_width ? 1 : 0;
+        river[at] = s.river_distance < half_width(s.river_drainage_area) ? 1 : 0;
         type[at] = static_cast<std::uint8_t>(s.type);
       }
       if (sampler.cached_triangles() > (std::size_t{1} << 21)) sampler.trim();

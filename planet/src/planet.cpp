@@ -198,7 +198,13 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
     const bool inside = dot(cross(u, q), n) >= 0 && dot(cross(q, v), n) >= 0;
     const double arc =
         inside ? std::asin(std::min(1.0, std::abs(dot(p, n)))) : std::min(angle(p, u), angle(p, v));
-    out.river_distance = std::min(out.river_distance, arc * planet_->definition().radius);
+    const double metres = arc * planet_->definition().radius;
+    if (metres < out.river_distance) {
+      out.river_distance = metres;
+      // The edge drains what its upstream end does.
+      out.river_drainage_area = std::min(hierarchy_.vertices[tri.v[k]].drainage_area,
+                                         hierarchy_.vertices[tri.v[(k + 1) % 3]].drainage_area);
+    }
   }
   out.ground = w[0] * x.ground + w[1] * y.ground + w[2] * z.ground;
   // River corners count as river features too: a channel around a vertex reaches into the
@@ -206,8 +212,11 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
   double channel = 0.0;
   for (const Vertex* v : {&x, &y, &z}) {
     if ((v->flags & kRiver) == 0 || !(v->water > v->ground)) continue;
-    out.river_distance =
-        std::min(out.river_distance, angle(p, v->p) * planet_->definition().radius);
+    const double metres = angle(p, v->p) * planet_->definition().radius;
+    if (metres <= out.river_distance) {  // at a vertex, it drains more than its upstream edges
+      out.river_distance = metres;
+      out.river_drainage_area = v->drainage_area;
+    }
     channel = std::max(channel, (v->water - v->ground) / planet_->definition().min_riverbed_slope);
   }
   const double water = w[0] * x.water + w[1] * y.water + w[2] * z.water;

@@ -138,6 +138,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       m.flags = kLand | kRiver;
       m.ground = 0.5 * (a.ground + b.ground);
       m.water = 0.5 * (a.water + b.water);
+      m.drainage_area = up.drainage_area;
       m.tangent = tangent_at(
           m.p,
           add(add(to_vec(up.tangent), to_vec(down.tangent)),

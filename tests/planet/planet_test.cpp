@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <numbers>
 #include <random>
 #include <set>
 #include <thread>
@@ -120,6 +121,32 @@ TEST(PlanetBaseMesh, EveryRiverFallsMonotonicallyToTheSea) {
   }
   EXPECT_GT(rivers, 100);
   EXPECT_GT(mesh.stats.mouths, 20);
+}
+
+TEST(PlanetBaseMesh, EveryRiverVertexDrainsItsShareAndEverythingUpstream) {
+  const BaseMesh& mesh = shared_planet()->base_mesh();
+  const auto& vertices = mesh.hierarchy.vertices;
+  const std::size_t count = mesh.downstream.size();
+  const double radius = mesh.rules.radius;
+  const double share = 4.0 * std::numbers::pi * radius * radius / static_cast<double>(count);
+  std::vector<double> inflow(count, 0.0);
+  for (std::size_t v = 0; v < count; ++v) {
+    if (mesh.downstream[v] >= 0) {
+      inflow[static_cast<std::size_t>(mesh.downstream[v])] += vertices[v].drainage_area;
+    }
+  }
+  double largest = 0.0;
+  int rivers = 0;
+  for (std::size_t v = 0; v < count; ++v) {
+    if ((vertices[v].flags & kRiver) == 0 || !(vertices[v].water > vertices[v].ground)) continue;
+    ++rivers;
+    EXPECT_NEAR(vertices[v].drainage_area, share + inflow[v], 1e-6 * (share + inflow[v])) << v;
+    largest = std::max(largest, static_cast<double>(vertices[v].drainage_area));
+  }
+  EXPECT_GT(rivers, 100);
+  // The largest river drains many base cells: trunks and headwaters differ.
+  EXPECT_NEAR(mesh.stats.largest_drainage_area, largest, 1e-6 * largest);
+  EXPECT_GT(largest, 10.0 * share);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -268,6 +295,17 @@ TEST(PlanetRefinement, RefinedRiversStillDrainDownhill) {
     }
   }
   ASSERT_GT(lowest.size(), 20u);
+  // Downstream along every refined river edge, the drainage area never shrinks.
+  for (const Tri& t : h.tris) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (t.edge[k] != EdgeType::river) continue;
+      const Vertex& a = h.vertices[t.v[k]];
+      const Vertex& b = h.vertices[t.v[(k + 1) % 3]];
+      const Vertex& down = a.water < b.water ? a : b;
+      const Vertex& up = a.water < b.water ? b : a;
+      EXPECT_GE(down.drainage_area, up.drainage_area);
+    }
+  }
   int checked = 0;
   for (auto [v, low] : lowest) {
     const Vertex& x = h.vertices[v];
@@ -313,6 +351,24 @@ TEST(PlanetSample, ReportsSeaLandAndRivers) {
   EXPECT_EQ(high.water, high.ground);
   const nlohmann::json body = sample_json(lat, lon, high);
   EXPECT_EQ(body.at("type"), "land");
+}
+
+TEST(PlanetSample, ReportsTheAreaTheNearestRiverDrains) {
+  const auto& world = shared_planet();
+  const auto& vertices = world->base_mesh().hierarchy.vertices;
+  const auto mouth = std::max_element(vertices.begin(), vertices.end(), [](auto& a, auto& b) {
+    return a.drainage_area < b.drainage_area;
+  });
+  double lat = 0, lon = 0;
+  world->geodesy().direction_to_geographic(mouth->p, lat, lon);
+  Sampler sampler(world);
+  const PointSample at_mouth = sampler.sample(lat, lon, 10000.0);
+  EXPECT_LT(at_mouth.river_distance, 1.0);
+  EXPECT_EQ(at_mouth.river_drainage_area, mouth->drainage_area);
+  // Far from any river (the open sea): none.
+  world->geodesy().direction_to_geographic(
+      centroid(world->base_mesh().hierarchy, leaf_with(world->base_mesh(), kSea)), lat, lon);
+  EXPECT_EQ(sampler.sample(lat, lon, 10000.0).river_drainage_area, 0.0);
 }
 
 TEST(PlanetGeodesy, DirectionsAgreeWithGeographicLib) {
@@ -595,6 +651,54 @@ TEST(PlanetPicture, ShowsLandSeaAndRiversAndIsThreadIndependent) {
   EXPECT_GT(blue / pixels, 0.4);
   EXPECT_GT(green_or_brown / pixels, 0.15);
   EXPECT_GT(river, 50);
+}
+
+TEST(PlanetPicture, DrawsTrunksWiderThanHeadwaters) {
+  // Strokes are wide where rivers drain much: the 3 × 3 pixels around the base network's
+  // trunk vertices (draining over a quarter of the largest river's area) hold more river pixels
+  // than those around its headwaters (springs draining their own share), and those few.
+  const auto& world = shared_planet();
+  const BaseMesh& mesh = world->base_mesh();
+  PictureOptions options;
+  options.width = 1024;
+  const std::vector<std::uint8_t> rgb = planet_picture_rgb(world, options);
+  const int width = options.width, height = width / 2;
+  const auto river_pixels_around = [&](const Vertex& v) {
+    double lat = 0, lon = 0;
+    world->geodesy().direction_to_geographic(v.p, lat, lon);
+    const int row = static_cast<int>((90.0 - lat) / 360.0 * width);
+    const int col = static_cast<int>((lon + 180.0) / 360.0 * width);
+    int count = 0;
+    for (int r = std::max(0, row - 1); r <= std::min(height - 1, row + 1); ++r) {
+      for (int c = std::max(0, col - 1); c <= std::min(width - 1, col + 1); ++c) {
+        const std::uint8_t* p = &rgb[(static_cast<std::size_t>(r) * width + c) * 3];
+        count += p[0] == 40 && p[1] == 90 && p[2] == 230 ? 1 : 0;
+      }
+    }
+    return count;
+  };
+  const auto& vertices = mesh.hierarchy.vertices;
+  double trunk = 0.0, headwater = 0.0;
+  int trunks = 0, headwaters = 0;
+  std::vector<int> inflows(mesh.downstream.size(), 0);
+  for (std::int32_t d : mesh.downstream) {
+    if (d >= 0) ++inflows[static_cast<std::size_t>(d)];
+  }
+  for (std::size_t v = 0; v < mesh.downstream.size(); ++v) {
+    const Vertex& x = vertices[v];
+    if ((x.flags & kLand) == 0 || (x.flags & kCoast) != 0) continue;  // inland river vertices
+    if (x.drainage_area > 0.25 * mesh.stats.largest_drainage_area) {
+      trunk += river_pixels_around(x), ++trunks;
+    } else if (inflows[v] == 0) {
+      headwater += river_pixels_around(x), ++headwaters;
+    }
+  }
+  ASSERT_GT(trunks, 3);
+  ASSERT_GT(headwaters, 20);
+  // Uniform strokes of 0.6 pixels either side (before drainage areas) gave 5.7 and 3.2 pixels of
+  // the 3 × 3 around them; strokes by drainage area 4.9 and 2.1.
+  EXPECT_GT(trunk / trunks, 2.0 * headwater / headwaters);
+  EXPECT_LT(headwater / headwaters, 2.6);
 }
 
 }  // namespace

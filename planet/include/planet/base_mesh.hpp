@@ -29,9 +29,10 @@ struct BaseMeshStats {
   /// connected land components.
   int continents = 0;
   int mouths = 0;
-  int river_vertices = 0;      ///< continental vertices on a river (all of them, §4.2)
-  int endorheic = 0;           ///< river ends that could not reach the sea
-  double longest_river = 0.0;  ///< metres along the base network
+  int river_vertices = 0;              ///< continental vertices on a river (all of them, §4.2)
+  int endorheic = 0;                   ///< river ends that could not reach the sea
+  double longest_river = 0.0;          ///< metres along the base network
+  double largest_drainage_area = 0.0;  ///< m², the largest river's at its mouth
 };
 
 class BaseMesh {

@@ -49,6 +49,9 @@ struct Vertex {
   std::array<float, 3> tangent{};  ///< rivers: unit downstream direction (eq. 9's t_v)
   std::uint8_t flags = kSea;
   float detail = 0.0f;  ///< weight of the fractal detail: 1 on dry land, 0 on water and rivers
+  /// Rivers: the area they drain (m²), the base level's land upstream of the vertex and its own
+  /// share; a river split's vertex drains what its upstream end does, a new arm's spring 0.
+  float drainage_area = 0.0f;
 };
 
 /// A triangle (v0, v1, v2), counter-clockwise seen from outside; (v0, v1) is its base.

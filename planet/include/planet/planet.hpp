@@ -33,6 +33,9 @@ struct PointSample {
   /// Metres to the nearest river edge of the triangle holding the point (infinity if none): lets
   /// pictures draw rivers narrower than a pixel.
   double river_distance = 0.0;
+  /// The area (m²) that river drains (Vertex::drainage_area; 0 if none): lets pictures draw
+  /// trunks wider than headwaters.
+  double river_drainage_area = 0.0;
 };
 
 class Planet {
