@@ -378,6 +378,15 @@ class Classifier {
         area[u] += area[v];
       }
     }
+    double largest = 0.0;
+    for (std::uint32_t v : bfs) largest = std::max(largest, area[v]);
+    mesh_.stats.largest_drainage_area = largest;
+    // Hydraulic geometry (Leopold and Maddock): depth ∝ Q^0.4 with the discharge Q ∝ drainage
+    // area, river_depth at the largest river's mouth; a spring is dry (water = ground).
+    const auto depth_for = [&](std::uint32_t v) {
+      if (upstream[v].empty()) return 0.0;
+      return def_.river_depth * std::pow(area[v] / largest, 0.4);
+    };
     const double sea = def_.sea_level;
     const double top = sea + def_.max_river_altitude;
     // A spring's target altitude grows with its river's length (§4.2), reaching a_max_river
@@ -387,7 +396,7 @@ class Classifier {
       Vertex& x = vertex(v);
       if (down_[v] < 0) {  // a mouth (a coast vertex), or an endorheic sink
         x.water = sea;
-        x.ground = kind_[v] == kCoast ? sea - def_.river_depth : sea;
+        x.ground = kind_[v] == kCoast ? sea - std::max(depth_for(v), 1.0) : sea;
         if (kind_[v] != kCoast) ++mesh_.stats.endorheic;
         ++mesh_.stats.mouths;
         continue;
@@ -402,9 +411,7 @@ class Classifier {
       const double rise =
           std::max(def_.min_river_slope, 2.0 * random_.uniform() * (target - y.water) / remaining);
       x.water = std::max(std::min(y.water + le * rise, top), y.water + le * def_.min_river_slope);
-      const double depth =
-          longest[v] > 0.0 ? def_.river_depth * (longest[v] - distance[v]) / longest[v] : 0.0;
-      x.ground = x.water - depth;
+      x.ground = x.water - depth_for(v);
       mesh_.stats.longest_river = std::max(mesh_.stats.longest_river, longest[v]);
     }
     // Tangents (downstream), flags and detail weights.
@@ -426,7 +433,6 @@ class Classifier {
       x.flags =
           static_cast<std::uint8_t>(kind_[v] == kCoast ? (kCoast | kRiver) : (kLand | kRiver));
       x.drainage_area = static_cast<float>(area[v]);
-      mesh_.stats.largest_drainage_area = std::max(mesh_.stats.largest_drainage_area, area[v]);
       if (kind_[v] == kLand) ++mesh_.stats.river_vertices;
       Vec3d direction{0, 0, 0};
       if (down_[v] >= 0) {

@@ -330,13 +330,18 @@ TEST(PlanetSample, ReportsSeaLandAndRivers) {
   EXPECT_EQ(sea.type, SurfaceType::sea);
   EXPECT_EQ(sea.water, world->definition().sea_level);
   EXPECT_LT(sea.ground, sea.water);
-  // A river vertex below its water, away from the coast: the river is there.
+  // The deepest river vertex away from the coast: the river is there.
   const auto& vertices = mesh.hierarchy.vertices;
-  std::size_t river = 0;
-  while (river < vertices.size() && !((vertices[river].flags & kLand) != 0 &&
-                                      vertices[river].water > vertices[river].ground + 50))
-    ++river;
+  std::size_t river = vertices.size();
+  for (std::size_t v = 0; v < vertices.size(); ++v) {
+    if ((vertices[v].flags & (kLand | kCoast)) != kLand) continue;
+    const double depth = vertices[v].water - vertices[v].ground;
+    if (river == vertices.size() || depth > vertices[river].water - vertices[river].ground) {
+      river = v;
+    }
+  }
   ASSERT_LT(river, vertices.size());
+  ASSERT_GT(vertices[river].water, vertices[river].ground + 50);
   world->geodesy().direction_to_geographic(vertices[river].p, lat, lon);
   const PointSample wet = sampler.sample(lat, lon);
   EXPECT_EQ(wet.type, SurfaceType::river);

@@ -28,8 +28,9 @@ namespace terrain {
 /// 4: pictures' soft shadows, sky occlusion, Rayleigh–Mie sky, aerial perspective and water.
 /// 5: material parameters: slope bands at whole degrees, a snow line lower towards planets' poles.
 /// 6: pictures draw the scene's water layer (terrain::WaterRaster). 7: PNGs filter every row with
-/// one fixed filter (terrain::PngFilter) instead of libpng's per-row trial.
-inline constexpr int kProductGeneration = 7;
+/// one fixed filter (terrain::PngFilter) instead of libpng's per-row trial. 8: planet rivers are
+/// as deep (and their channels as wide) as their drainage area makes them (depth ∝ A^0.4).
+inline constexpr int kProductGeneration = 8;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
