@@ -636,6 +636,11 @@ TEST(PlanetTiles, WebMercatorTilesSampleThePlanetWhereEPSG3857PutsThem) {
   EXPECT_EQ(png->media_type, "image/png");
 }
 
+// Pictures draw rivers in one colour (planet/src/picture.cpp).
+bool is_river_pixel(const std::uint8_t* rgb) {
+  return rgb[0] == 40 && rgb[1] == 90 && rgb[2] == 230;
+}
+
 TEST(PlanetPicture, ShowsLandSeaAndRiversAndIsThreadIndependent) {
   PictureOptions options;
   options.width = 256;
@@ -644,7 +649,7 @@ TEST(PlanetPicture, ShowsLandSeaAndRiversAndIsThreadIndependent) {
   EXPECT_EQ(planet_picture_rgb(shared_planet(), options), one);
   int blue = 0, green_or_brown = 0, river = 0;
   for (std::size_t i = 0; i < one.size(); i += 3) {
-    if (one[i] == 40 && one[i + 1] == 90 && one[i + 2] == 230) {
+    if (is_river_pixel(&one[i])) {
       ++river;
     } else if (one[i + 2] > one[i] && one[i + 2] > one[i + 1]) {
       ++blue;
@@ -676,8 +681,7 @@ TEST(PlanetPicture, DrawsTrunksWiderThanHeadwaters) {
     int count = 0;
     for (int r = std::max(0, row - 1); r <= std::min(height - 1, row + 1); ++r) {
       for (int c = std::max(0, col - 1); c <= std::min(width - 1, col + 1); ++c) {
-        const std::uint8_t* p = &rgb[(static_cast<std::size_t>(r) * width + c) * 3];
-        count += p[0] == 40 && p[1] == 90 && p[2] == 230 ? 1 : 0;
+        count += is_river_pixel(&rgb[(static_cast<std::size_t>(r) * width + c) * 3]) ? 1 : 0;
       }
     }
     return count;
