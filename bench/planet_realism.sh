@@ -11,12 +11,14 @@ planet="$build/tools/planet"
 [ -x "$planet" ] || { echo "missing $planet: build planet_cli" >&2; exit 1; }
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-# A definition and a land point of each planet (found with `planet sample`).
+# A definition and a land point of each planet: the first point of a fixed scan (latitudes 5, 15,
+# 25, 35, −5, −15, −25; longitudes −175 to 175 in steps of 10) where `planet sample` reports land
+# there and 0.1° north, south, east and west of it (generation 9 planets).
 seeded() {
   python3 -c "import json,sys; d=json.load(open('config/planets/default.json')); d['seed']=int(sys.argv[1]); print(json.dumps(d))" "$1" > "$work/seed-$1.json"
   echo "$work/seed-$1.json"
 }
-planets=("config/planets/default.json 6.5 40" "$(seeded 7) 5 150" "$(seeded 42) 30 60")
+planets=("config/planets/default.json 5 -175" "$(seeded 7) 5 -165" "$(seeded 42) 5 -175")
 printf '%-12s %4s %8s %8s %8s %7s %6s %6s %8s\n' planet zoom cell_m pits_% closed_% theta r2 R_b seconds
 for entry in "${planets[@]}"; do
   read -r definition lat lon <<< "$entry"

@@ -24,6 +24,9 @@ struct NumberField {
   double PlanetDefinition::*member;
   double lo, hi;
   bool lo_open;
+  /// Fields added after planets were published: written to the canonical form only when they
+  /// differ from the default, so existing definitions keep their ids.
+  bool written_when_set = false;
 };
 struct DetailField {
   const char* name;
@@ -50,6 +53,7 @@ const std::vector<NumberField>& number_fields() {
       {"max_ground_slope", &PlanetDefinition::max_ground_slope, 0.0, 10.0, true},
       {"mountain_slope", &PlanetDefinition::mountain_slope, 0.0, 1.0, false},
       {"finest_edge", &PlanetDefinition::finest_edge, 0.01, 100000.0, false},
+      {"min_drain_slope", &PlanetDefinition::min_drain_slope, 0.0, 1.0, true, true},
   };
   return table;
 }
@@ -217,7 +221,11 @@ nlohmann::json canonical_json(const PlanetDefinition& d) {
   out["seed"] = d.seed;
   out["continents"] = d.continents;
   out["base_faces"] = d.base_faces;
-  for (const NumberField& f : number_fields()) out[f.name] = d.*(f.member);
+  static const PlanetDefinition defaults;
+  for (const NumberField& f : number_fields()) {
+    if (f.written_when_set && d.*(f.member) == defaults.*(f.member)) continue;
+    out[f.name] = d.*(f.member);
+  }
   nlohmann::json detail = nlohmann::json::object();
   for (const DetailField& f : detail_fields()) detail[f.name] = d.detail.*(f.member);
   out["detail"] = std::move(detail);

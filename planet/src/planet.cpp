@@ -9,6 +9,42 @@
 
 namespace planet {
 
+namespace {
+
+// Valley floors along rivers and coasts, at every level. In a land triangle with wet corners
+// (river or coast) and dry ones, the ground rises only kFloorRise of the way to the dry
+// corners over the first kFloorWidth of the way (in the dry corners' total barycentric weight),
+// then climbs the rest linearly. A piecewise-linear V whose sides are steeper than the river it
+// holds leaves the samples beside a channel narrower than a sample lower than all eight
+// neighbours (pits at every zoom: docs/analysis.md); a floor about a sample wide drains them
+// into it. The blend uses only the wet and dry barycentric weights, and along a shared edge both
+// triangles see the same two corners with the same weights, so the surface stays continuous.
+constexpr double kFloorWidth = 0.5;
+constexpr double kFloorRise = 0.001;
+
+double floored_ground(const std::array<const Vertex*, 3>& corner, const std::array<double, 3>& w) {
+  double wet_weight = 0.0, wet_sum = 0.0, dry_weight = 0.0, dry_sum = 0.0;
+  for (std::size_t k = 0; k < 3; ++k) {
+    if ((corner[k]->flags & (kRiver | kCoast | kSea)) != 0) {
+      wet_weight += w[k];
+      wet_sum += w[k] * corner[k]->ground;
+    } else {
+      dry_weight += w[k];
+      dry_sum += w[k] * corner[k]->ground;
+    }
+  }
+  if (!(wet_weight > 0.0) || !(dry_weight > 0.0)) return wet_sum + dry_sum;
+  const double share = std::min(dry_weight, 1.0);
+  const double rise = share <= kFloorWidth ? kFloorRise * share
+                                           : kFloorRise * kFloorWidth +
+                                                 (1.0 - kFloorRise * kFloorWidth) *
+                                                     (share - kFloorWidth) / (1.0 - kFloorWidth);
+  const double wet_level = wet_sum / wet_weight;
+  return wet_level + rise * (dry_sum / dry_weight - wet_level);
+}
+
+}  // namespace
+
 std::string_view surface_name(SurfaceType type) {
   switch (type) {
     case SurfaceType::sea:
@@ -36,6 +72,13 @@ Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options,
       static_cast<float>(std::ceil(d.sea_level + d.max_mountain_altitude + detail_max))};
   detail_gain_ = std::pow(d.detail.lacunarity, -d.detail.hurst);
   detail_seed_ = static_cast<std::uint32_t>(mix64(d.seed ^ 0x64657461696cULL));
+  // The mesh displaces its vertices with the same spectrum down to finest_edge; the noise only
+  // carries it further, so it starts at the first octave shorter than that edge.
+  for (double wavelength = d.detail.wavelength;
+       wavelength >= d.finest_edge && first_detail_octave_ < 40;
+       wavelength /= d.detail.lacunarity) {
+    ++first_detail_octave_;
+  }
 }
 
 std::shared_ptr<const Planet> Planet::create(const PlanetDefinition& definition,
@@ -96,6 +139,12 @@ double Planet::ground_spacing(int z, int cells) const {
   return std::numbers::pi * definition().radius / (std::ldexp(1.0, z) * cells);
 }
 
+double Planet::relief_between_samples(double spacing) const {
+  const Rules& r = rules();
+  const double edge = r.edge_length(level_for_spacing(spacing));
+  return r.roughness(edge) + r.drain_rise(edge);
+}
+
 terrain::Interval Planet::elevation_range() const {
   return elevation_range_;
 }
@@ -107,6 +156,11 @@ double Planet::detail(const Vec3d& p, double octaves) const {
   const double gain = detail_gain_;
   const std::uint32_t seed = detail_seed_;
   for (int k = 0; k < 40 && k < octaves; ++k) {
+    if (k < first_detail_octave_) {  // coarser octaves are the mesh's own displacement
+      amplitude *= gain;
+      frequency *= d.lacunarity;
+      continue;
+    }
     const double weight = std::min(1.0, octaves - k);  // the last octave fades in (geomorphing)
     const double s = detail::gradient3(p[0] * frequency, p[1] * frequency, p[2] * frequency,
                                        seed + static_cast<std::uint32_t>(k) * 0x9e3779b9U);
@@ -206,7 +260,8 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
                                          hierarchy_.vertices[tri.v[(k + 1) % 3]].drainage_area);
     }
   }
-  out.ground = w[0] * x.ground + w[1] * y.ground + w[2] * z.ground;
+  out.ground = tri.face == FaceType::land ? floored_ground({&x, &y, &z}, w)
+                                          : w[0] * x.ground + w[1] * y.ground + w[2] * z.ground;
   // River corners count as river features too: a channel around a vertex reaches into the
   // triangles that touch the river only there.
   double channel = 0.0;

@@ -37,6 +37,13 @@ double Rules::edge_length(int level) const {
   return radius * std::numbers::pi / 2.0 * std::exp2(-0.5 * level);
 }
 
+double Rules::drain_rise(double length) const {
+  // Capped: over a long edge the slope alone would lift a vertex kilometres above its lowest
+  // corner, every coarse level would stand far lower than the finer ones under it, and coarse
+  // tiles would dip far under the surface their finer children show.
+  return std::min(length * def.min_drain_slope, 0.1 * def.max_mountain_altitude);
+}
+
 double Rules::roughness(double length) const {
   return def.detail.amplitude * std::pow(length / def.detail.wavelength, def.detail.hurst);
 }
@@ -46,6 +53,20 @@ namespace {
 bool wet(const Vertex& v) {
   return (v.flags & (kRiver | kCoast | kSea)) != 0 || v.water > v.ground;
 }
+
+// The height water leaves a vertex at: its surface where wet, else its ground.
+double outflow_level(const Vertex& v) {
+  return wet(v) ? std::max(v.water, v.ground) : v.ground;
+}
+
+// How much of eq. 2's offset from the base's midpoint a new vertex keeps. A bisection keeps its
+// triangles' shapes (newest-vertex bisection makes finitely many shapes from each start), so a
+// sliver made at any level stays a sliver at every level below, and a piecewise-linear surface
+// over slivers shows streaks and pits at every zoom (docs/analysis.md "Where the pits come
+// from"). The base shape keeps half the offset, the refinement of land 15 %; coastlines keep all
+// of it, since their wiggle is the continents' outline.
+constexpr double kBaseShapeOffset = 0.5;
+constexpr double kLandOffset = 0.15;
 
 // Unit vector in the tangent plane at p closest to direction v (zero if v is radial).
 std::array<float, 3> tangent_at(const Vec3d& p, const Vec3d& v) {
@@ -94,10 +115,11 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   const double wa = (1 - eta) * xi, wt = (1 - eta) * (1 - xi), wd = eta * xi, wb = eta * (1 - xi);
   const Vec3d eq2 =
       normalize(add(add(scale(a.p, wa), scale(t.p, wt)), add(scale(d.p, wd), scale(b.p, wb))));
+  auto offset = [&](double share) { return normalize(add(mid, scale(sub(eq2, mid), share))); };
   const double l_ab = rules.radius * angle(a.p, b.p);
 
   if (level < rules.base_level) {  // base shape: geometry only; §4 labels it afterwards
-    m.p = place(eq2);
+    m.p = place(offset(kBaseShapeOffset));
     m.flags = kSea;
     m.ground = def.sea_level - def.sea_depth;
     m.water = def.sea_level;
@@ -146,12 +168,31 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
                     2.0 / std::max(1e-300, std::sqrt(dot(sub(down.p, up.p), sub(down.p, up.p)))))));
       return r;
     }
+    case EdgeType::drain: {
+      // Between its ends in height too, so both halves drain downhill: the upper end keeps a
+      // strictly lower neighbour at every level. The split point's share of the drop follows
+      // its distance along the edge, jittered a little.
+      const bool a_up = outflow_level(a) > outflow_level(b) ||
+                        (outflow_level(a) == outflow_level(b) && a.seed < b.seed);
+      const Vertex& up = a_up ? a : b;
+      const Vertex& down = a_up ? b : a;
+      m.p = place(offset(kLandOffset));
+      const double to_up = angle(m.p, up.p), to_down = angle(m.p, down.p);
+      const double f = std::clamp(to_down / (to_up + to_down) + 0.1 * (2.0 * g1 - 1.0), 0.2, 0.8);
+      m.flags = kLand;
+      m.detail = 1.0f;
+      m.ground = outflow_level(down) + (outflow_level(up) - outflow_level(down)) * f;
+      m.water =
+          std::min(0.5 * (a.water + b.water),
+                   m.ground - std::max(def.riverbed_edge_height, l_ab * def.min_riverbed_slope));
+      return r;
+    }
     case EdgeType::land:
       break;
   }
 
   // A continent vertex (§5.3 step 6).
-  m.p = place(eq2);
+  m.p = place(offset(kLandOffset));
   const Vertex* corner[4] = {&a, &b, &t, &d};
   double length[4];
   for (int i = 0; i < 4; ++i) length[i] = rules.radius * angle(m.p, corner[i]->p);
@@ -223,6 +264,17 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   }
   hi = std::min(hi, def.sea_level + def.max_mountain_altitude);
   m.ground = lo > hi ? lo : std::clamp(estimate, lo, hi);
+  // Drainage at every level: the new vertex drains along the edge to its lowest corner and
+  // stands above it by the drain rise at least, so it is not a pit
+  // now, and the drain split above keeps it from becoming one after any later split.
+  int receiver = 0;
+  for (int i = 1; i < 4; ++i) {
+    if (outflow_level(*corner[i]) < outflow_level(*corner[receiver])) receiver = i;
+  }
+  m.ground =
+      std::max(m.ground, outflow_level(*corner[receiver]) + rules.drain_rise(length[receiver]));
+  EdgeType* to[4] = {&r.half_a, &r.half_b, &r.spoke_t, &r.spoke_d};
+  *to[receiver] = EdgeType::drain;
   // Dry: the water surface stays below the ground, so a river's water meets its banks inside
   // the triangles next to it instead of flooding them.
   // The water surface of a dry vertex only says how far a neighbour's water reaches towards it:

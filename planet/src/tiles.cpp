@@ -115,6 +115,7 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
         -180.0 + static_cast<double>(a.x + 1) * size, -90.0 + static_cast<double>(a.y + 1) * size};
     tile.ground_spacing = world.ground_spacing(a.z, request.cells);
   }
+  tile.unseen_relief = world.relief_between_samples(tile.ground_spacing);
   const auto longitude_of = [&](double crs_x) {
     return mercator ? terrain::web_mercator_longitude(crs_x) : crs_x;
   };

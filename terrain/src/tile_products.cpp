@@ -171,9 +171,12 @@ TileMesh triangulate_for(const HeightTile& tile, const ProductOptions& options, 
   if (format == TileFormat::quantized_mesh && tile.scheme == TileScheme::geographic) {
     // The allowance bounds what the samples see; 10 % of Cesium's error stays for what they
     // cannot: the sag inside one grid cell (at most 5 % at zoom 0 with 65 samples, halving per
-    // zoom) and the height and position quanta.
-    const double max_error = options.max_error.value_or(
-        std::min(0.25 * tile.ground_spacing, 0.9 * cesium_level_geometric_error(tile.address.z)));
+    // zoom) and the height and position quanta; and the relief between samples, where the
+    // surface says how much it has.
+    const double max_error = options.max_error.value_or(std::max(
+        0.0,
+        std::min(0.25 * tile.ground_spacing, 0.9 * cesium_level_geometric_error(tile.address.z)) -
+            tile.unseen_relief));
     const int last = tile.width - 1;
     const TileBounds degrees{tile.sample_crs_x(0), tile.sample_crs_y(last), tile.sample_crs_x(last),
                              tile.sample_crs_y(0)};

@@ -23,15 +23,15 @@ const HEIGHT = 64;
 const PIXEL_TOLERANCE = 6;  // per channel, of 255 (as the scene goldens)
 const PIXEL_SHARE = 0.99;
 const ORBIT = '#planet=default';
-const LOW = '#planet=default&lat=6.5&lon=40&alt=6000&heading=0&tilt=75';
-const GOLDEN = '#planet=default&lat=4&lon=40&alt=120000&heading=10&tilt=55';
+const LOW = '#planet=default&lat=4&lon=-176&alt=6000&heading=0&tilt=75';
+const GOLDEN = '#planet=default&lat=4&lon=-176&alt=120000&heading=280&tilt=55';
 // Decoded tiles: [z, x, y, tolerance against /sample]. /sample is at full detail; a tile's
 // samples come from the planet's refinement level for its sample spacing, so the two agree only
 // where that level is the finest: from about zoom 16 on (measured 0.20–0.29 m at zooms 16–20:
 // the shared edge heights are rounded to the edge quantum Q = 0.5 m, so up to Q/2, and interior
 // heights to q ≤ Q). The zoom-9 tile over a coast (a 256² water mask) is checked for structure
 // only: at its level the refinement differs from the finest by up to hundreds of metres.
-const DECODED_TILES = [[18, 144179, 96119, 0.5], [20, 1282175, 567396, 0.5], [9, 625, 277, null]];
+const DECODED_TILES = [[18, 144179, 96119, 0.5], [20, 1282175, 567396, 0.5], [9, 3, 267, null]];
 
 const [serverBinary, repoRoot, ...rest] = process.argv.slice(2);
 const accept = rest.includes('--accept');

@@ -184,12 +184,17 @@ async function deepestVertices(meshUrl, maxzoom, lon, lat, count) {
   const west = -180 + x * step, south = -90 + y * step;
   const { minimumHeight, maximumHeight } = mesh.header;
   const quantum = (maximumHeight - minimumHeight) / 32767;
-  const chosen = [];
-  const stride = Math.max(1, Math.floor(mesh.vertexCount / count));
-  for (let k = 0; k < mesh.vertexCount && chosen.length < count; k += stride) {
+  // Inner vertices only (edge vertices are rounded to the edge quantum), spread over the tile.
+  const inner = [];
+  for (let k = 0; k < mesh.vertexCount; ++k) {
     const u = mesh.u[k] / 32767, v = mesh.v[k] / 32767;
-    if (u <= 0 || u >= 1 || v <= 0 || v >= 1) continue;  // edges: rounded to the edge quantum
-    chosen.push([west + u * step, south + v * step, mesh.heights[k]]);
+    if (u > 0 && u < 1 && v > 0 && v < 1) inner.push(k);
+  }
+  const chosen = [];
+  const stride = Math.max(1, Math.floor(inner.length / count));
+  for (let i = 0; i < inner.length && chosen.length < count; i += stride) {
+    const k = inner[i];
+    chosen.push([west + (mesh.u[k] / 32767) * step, south + (mesh.v[k] / 32767) * step, mesh.heights[k]]);
   }
   return { vertices: chosen, quantum, z: maxzoom, x, y };
 }
@@ -331,7 +336,7 @@ async function cesiumPlanet() {
 
   // Near the ground: fly low over land, let the deep tiles load, compare heights at vertices.
   const layer = await getJson(`${api}/api/v1/planets/default/layer.json`);
-  const land = { lon: 40, lat: 6.5 };
+  const land = { lon: -175, lat: 5 };
   await page.evaluate(({ lon, lat }) => {
     const { Cesium: C, viewer } = window.terrainExample;
     viewer.camera.setView({ destination: C.Cartesian3.fromDegrees(lon, lat - 0.08, 9000),

@@ -64,6 +64,8 @@ TEST(PlanetDefinition, BadDefinitionsAreRejectedNamingTheField) {
       {R"({"river_depth": 0})", "/river_depth"},
       {R"({"max_ground_slope": -1})", "/max_ground_slope"},
       {R"({"flattening": 0.5})", "/flattening"},
+      {R"({"min_drain_slope": 0})", "/min_drain_slope"},
+      {R"({"min_drain_slope": 2})", "/min_drain_slope"},
       {R"({"detail": 3})", "/detail"},
       {R"({"detail": {"hurst": 0}})", "/detail/hurst"},
       {R"({"detail": {"octaves": 3}})", "/detail/octaves"},
@@ -119,6 +121,20 @@ TEST(PlanetDefinition, MaterialIsInTheIdOnlyWhenItDrawsDifferently) {
   Result<PlanetDefinition> back = parse_planet(canonical_json(*arctic));
   ASSERT_TRUE(back.ok());
   EXPECT_EQ(planet_id(*back), planet_id(*arctic));
+}
+
+TEST(PlanetDefinition, DrainSlopeIsInTheIdOnlyWhenItDiffersFromTheDefault) {
+  Result<PlanetDefinition> plain = parse_planet_text(R"({"seed": 7})");
+  Result<PlanetDefinition> defaults = parse_planet_text(R"({"seed": 7, "min_drain_slope": 0.03})");
+  Result<PlanetDefinition> gentle = parse_planet_text(R"({"seed": 7, "min_drain_slope": 0.01})");
+  ASSERT_TRUE(plain.ok() && defaults.ok() && gentle.ok());
+  EXPECT_EQ(planet_id(*defaults), planet_id(*plain));
+  EXPECT_FALSE(canonical_json(*plain).contains("min_drain_slope"));
+  EXPECT_NE(planet_id(*gentle), planet_id(*plain));
+  Result<PlanetDefinition> back = parse_planet(canonical_json(*gentle));
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(back->min_drain_slope, 0.01);
+  EXPECT_EQ(planet_id(*back), planet_id(*gentle));
 }
 
 TEST(PlanetDefinition, BadMaterialsAreRejectedNamingTheField) {

@@ -48,7 +48,10 @@ struct PlanetDefinition {
   double riverbed_edge_height = 10.0;    ///< ε_rb
   double max_ground_slope = 1.0;         ///< s_g (1000 m/km)
   double mountain_slope = 0.012;         ///< e_m of eq. 5 (not in Table 2)
-  int base_faces = 5000;                 ///< base shape accuracy; rounded to 8·2^k faces
+  /// Every new land vertex stands at least this slope above the neighbour it drains to (not in
+  /// the paper): the surface has no pits at any level (planet.md "Drainage at every level").
+  double min_drain_slope = 0.03;
+  int base_faces = 5000;      ///< base shape accuracy; rounded to 8·2^k faces
   double finest_edge = 10.0;  ///< refinement stops at edges this short; detail noise goes on
   DetailParams detail;
   /// "" (random continents), or "sha256:<64 lowercase hex>": the hash of an image whose pixels
@@ -73,9 +76,9 @@ Result<PlanetDefinition> parse_planet_text(std::string_view text);
 /// Reads a definition file.
 Result<PlanetDefinition> load_planet_file(const std::string& path);
 
-/// Every field explicit, except continent_map, written only when set, and material, written only
-/// when it differs from the defaults (so planets defined before those fields existed keep their
-/// ids): parse_planet(canonical_json(d)) gives d back.
+/// Every field explicit, except continent_map, written only when set, and material and
+/// min_drain_slope, written only when they differ from the defaults (so planets defined before
+/// those fields existed keep their ids): parse_planet(canonical_json(d)) gives d back.
 nlohmann::json canonical_json(const PlanetDefinition& definition);
 /// The canonical text: keys sorted, no whitespace, shortest round-trip numbers.
 std::string canonical_text(const PlanetDefinition& definition);

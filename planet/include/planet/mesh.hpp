@@ -38,7 +38,9 @@ enum VertexFlags : std::uint8_t {
   kRiver = 8,  ///< on a river: water above the ground (a spring: water equals ground)
 };
 
-enum class EdgeType : std::uint8_t { sea, coast, land, river };
+/// `drain`: a land edge its higher end drains along (to the lower end), so that every dry
+/// vertex has a strictly lower neighbour at every level and the surface has no pits.
+enum class EdgeType : std::uint8_t { sea, coast, land, river, drain };
 enum class FaceType : std::uint8_t { sea, land };
 
 struct Vertex {
@@ -82,6 +84,9 @@ struct Rules {
   double roughness(double length) const;
   /// Typical edge length at a level (metres).
   double edge_length(int level) const;
+  /// The least rise of a new land vertex over the corner it drains to, for an edge of l metres:
+  /// min_drain_slope·l, capped at a tenth of max_mountain_altitude (refine.cpp).
+  double drain_rise(double length) const;
 };
 
 /// What splitting a diamond produces, besides the topology.

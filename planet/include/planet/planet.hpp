@@ -1,6 +1,7 @@
 // A planet: its definition, base mesh and geodesy, and the height function every product
 // samples. The height at a point for a given level of detail is computed locally (the mesh
-// hierarchy descended to the point, then Schneider's fractal detail), so it never depends on
+// hierarchy descended to the point, then Schneider's fractal detail below the mesh's finest
+// edge), so it never depends on
 // what else was evaluated, in what order or on which thread.
 #pragma once
 
@@ -69,11 +70,16 @@ class Planet {
   /// Metres between the rows of a geographic tile at zoom z with `cells` cells: the LoD of every
   /// tile at (z, cells), wherever it lies, so that neighbours sample alike.
   double ground_spacing(int z, int cells) const;
+  /// How far the surface at the level of detail of `spacing` may rise between samples that far
+  /// apart above their interpolation: the refinement's displacement and drain rise at the
+  /// level's edge length (an estimate, not a bound: the mesh tiles' error allowance).
+  double relief_between_samples(double spacing) const;
   /// A bound of every height the planet produces (samples are clamped into it).
   terrain::Interval elevation_range() const;
 
-  /// The fractal detail at direction p before its weight: Σ_k a_k (1 + S(p r^k / λ))/2 ≥ 0,
-  /// so it only ever raises the ground (water stays in its bed, coasts stay coasts).
+  /// The fractal detail at direction p before its weight: Σ_k a_k (1 + S(p r^k / λ))/2 ≥ 0
+  /// over the octaves shorter than finest_edge (the mesh carries the longer ones), so it only
+  /// ever raises the ground (water stays in its bed, coasts stay coasts).
   double detail(const Vec3d& direction, double octaves) const;
 
  private:
@@ -86,6 +92,7 @@ class Planet {
   terrain::Interval elevation_range_;
   double detail_gain_ = 0.0;
   std::uint32_t detail_seed_ = 0;
+  int first_detail_octave_ = 0;  ///< octaves before it are left to the mesh
 };
 
 /// Where a group of nearby samples may start their descent instead of the octahedron: a

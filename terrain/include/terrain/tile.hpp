@@ -81,7 +81,10 @@ struct HeightTile {
   int height = 0;     ///< rows, equal to width
   TileBounds world;   ///< footprint of the whole zoom-0 grid (local: the scene's square)
   TileBounds bounds;  ///< the tile's own footprint (without border)
-  double ground_spacing = 0.0;     ///< metres between neighbouring samples (the LoD spacing)
+  double ground_spacing = 0.0;  ///< metres between neighbouring samples (the LoD spacing)
+  /// Metres the surface may rise between samples above their interpolation (planets: the
+  /// refinement's displacement at its level's edge length); mesh error allowances leave room.
+  double unseen_relief = 0.0;
   std::vector<float> elevation;    ///< metres, width·height, index row·width + column
   std::vector<float> slope_east;   ///< ∂h/∂east (dimensionless), same layout
   std::vector<float> slope_north;  ///< ∂h/∂north (dimensionless), same layout

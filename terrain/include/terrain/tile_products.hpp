@@ -30,7 +30,9 @@ namespace terrain {
 /// 6: pictures draw the scene's water layer (terrain::WaterRaster). 7: PNGs filter every row with
 /// one fixed filter (terrain::PngFilter) instead of libpng's per-row trial. 8: planet rivers are
 /// as deep (and their channels as wide) as their drainage area makes them (depth ∝ A^0.4).
-inline constexpr int kProductGeneration = 8;
+/// 9: planets drain at every level (drain edges, valley floors along rivers and coasts), bisect
+/// into well-shaped triangles, and leave the fractal's octaves longer than finest_edge to the mesh.
+inline constexpr int kProductGeneration = 9;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
@@ -128,7 +130,8 @@ double cesium_level_geometric_error(int z);
 /// The triangulation encode_product uses for a mesh tile in `format`. Quantized-mesh (drawn on
 /// the globe in Earth-centred coordinates) is triangulated on the ellipsoid
 /// (triangulate_rtin_on_ellipsoid) within options.max_error or, by default, the smaller of a
-/// quarter of the ground spacing and 0.9 × cesium_level_geometric_error(z); glTF and Draco
+/// quarter of the ground spacing and 0.9 × cesium_level_geometric_error(z), less the tile's
+/// unseen_relief; glTF and Draco
 /// (local coordinates) on the flat height grid within options.max_error or a quarter of the
 /// ground spacing.
 TileMesh triangulate_for(const HeightTile& tile, const ProductOptions& options, TileFormat format);
