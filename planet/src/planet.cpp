@@ -150,6 +150,7 @@ terrain::Interval Planet::elevation_range() const {
 }
 
 double Planet::detail(const Vec3d& p, double octaves) const {
+  if (octaves <= first_detail_octave_) return 0.0;  // every visible octave is the mesh's
   const DetailParams& d = definition().detail;
   const double radius = definition().radius;
   double sum = 0.0, amplitude = d.amplitude, frequency = radius / d.wavelength;
