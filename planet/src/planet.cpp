@@ -25,7 +25,7 @@ constexpr double kFloorRise = 0.001;
 double floored_ground(const std::array<const Vertex*, 3>& corner, const std::array<double, 3>& w) {
   double wet_weight = 0.0, wet_sum = 0.0, dry_weight = 0.0, dry_sum = 0.0;
   for (std::size_t k = 0; k < 3; ++k) {
-    if ((corner[k]->flags & (kRiver | kCoast | kSea)) != 0) {
+    if (wet(*corner[k])) {
       wet_weight += w[k];
       wet_sum += w[k] * corner[k]->ground;
     } else {
@@ -74,10 +74,14 @@ Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options,
   detail_seed_ = static_cast<std::uint32_t>(mix64(d.seed ^ 0x64657461696cULL));
   // The mesh displaces its vertices with the same spectrum down to finest_edge; the noise only
   // carries it further, so it starts at the first octave shorter than that edge.
+  first_detail_amplitude_ = d.detail.amplitude;
+  first_detail_frequency_ = d.radius / d.detail.wavelength;
   for (double wavelength = d.detail.wavelength;
        wavelength >= d.finest_edge && first_detail_octave_ < 40;
        wavelength /= d.detail.lacunarity) {
     ++first_detail_octave_;
+    first_detail_amplitude_ *= detail_gain_;
+    first_detail_frequency_ *= d.detail.lacunarity;
   }
 }
 
@@ -150,24 +154,15 @@ terrain::Interval Planet::elevation_range() const {
 }
 
 double Planet::detail(const Vec3d& p, double octaves) const {
-  if (octaves <= first_detail_octave_) return 0.0;  // every visible octave is the mesh's
-  const DetailParams& d = definition().detail;
-  const double radius = definition().radius;
-  double sum = 0.0, amplitude = d.amplitude, frequency = radius / d.wavelength;
-  const double gain = detail_gain_;
-  const std::uint32_t seed = detail_seed_;
-  for (int k = 0; k < 40 && k < octaves; ++k) {
-    if (k < first_detail_octave_) {  // coarser octaves are the mesh's own displacement
-      amplitude *= gain;
-      frequency *= d.lacunarity;
-      continue;
-    }
+  const double lacunarity = definition().detail.lacunarity;
+  double sum = 0.0, amplitude = first_detail_amplitude_, frequency = first_detail_frequency_;
+  for (int k = first_detail_octave_; k < 40 && k < octaves; ++k) {
     const double weight = std::min(1.0, octaves - k);  // the last octave fades in (geomorphing)
     const double s = detail::gradient3(p[0] * frequency, p[1] * frequency, p[2] * frequency,
-                                       seed + static_cast<std::uint32_t>(k) * 0x9e3779b9U);
+                                       detail_seed_ + static_cast<std::uint32_t>(k) * 0x9e3779b9U);
     sum += weight * amplitude * 0.5 * (1.0 + std::clamp(s, -1.0, 1.0));
-    amplitude *= gain;
-    frequency *= d.lacunarity;
+    amplitude *= detail_gain_;
+    frequency *= lacunarity;
   }
   return sum;
 }

@@ -50,15 +50,6 @@ double Rules::roughness(double length) const {
 
 namespace {
 
-bool wet(const Vertex& v) {
-  return (v.flags & (kRiver | kCoast | kSea)) != 0 || v.water > v.ground;
-}
-
-// The height water leaves a vertex at: its surface where wet, else its ground.
-double outflow_level(const Vertex& v) {
-  return wet(v) ? std::max(v.water, v.ground) : v.ground;
-}
-
 // How much of eq. 2's offset from the base's midpoint a new vertex keeps. A bisection keeps its
 // triangles' shapes (newest-vertex bisection makes finitely many shapes from each start), so a
 // sliver made at any level stays a sliver at every level below, and a piecewise-linear surface
@@ -117,6 +108,15 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       normalize(add(add(scale(a.p, wa), scale(t.p, wt)), add(scale(d.p, wd), scale(b.p, wb))));
   auto offset = [&](double share) { return normalize(add(mid, scale(sub(eq2, mid), share))); };
   const double l_ab = rules.radius * angle(a.p, b.p);
+  // Dry: the water surface stays below the ground, so a river's water meets its banks inside
+  // the triangles next to it instead of flooding them. The water surface of a dry vertex only
+  // says how far a neighbour's water reaches towards it: one riverbed slope (s_rb) per metre of
+  // edge below the ground makes a river of depth d end about d / s_rb from its vertex at every
+  // level, instead of flooding a fixed fraction of ever larger triangles at coarse levels.
+  auto dry_water = [&](double water) {
+    return std::min(water,
+                    m.ground - std::max(def.riverbed_edge_height, l_ab * def.min_riverbed_slope));
+  };
 
   if (level < rules.base_level) {  // base shape: geometry only; §4 labels it afterwards
     m.p = place(offset(kBaseShapeOffset));
@@ -172,19 +172,18 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       // Between its ends in height too, so both halves drain downhill: the upper end keeps a
       // strictly lower neighbour at every level. The split point's share of the drop follows
       // its distance along the edge, jittered a little.
-      const bool a_up = outflow_level(a) > outflow_level(b) ||
-                        (outflow_level(a) == outflow_level(b) && a.seed < b.seed);
+      const double level_a = outflow_level(a), level_b = outflow_level(b);
+      const bool a_up = level_a > level_b || (level_a == level_b && a.seed < b.seed);
       const Vertex& up = a_up ? a : b;
       const Vertex& down = a_up ? b : a;
+      const double high = a_up ? level_a : level_b, low = a_up ? level_b : level_a;
       m.p = place(offset(kLandOffset));
       const double to_up = angle(m.p, up.p), to_down = angle(m.p, down.p);
       const double f = std::clamp(to_down / (to_up + to_down) + 0.1 * (2.0 * g1 - 1.0), 0.2, 0.8);
       m.flags = kLand;
       m.detail = 1.0f;
-      m.ground = outflow_level(down) + (outflow_level(up) - outflow_level(down)) * f;
-      m.water =
-          std::min(0.5 * (a.water + b.water),
-                   m.ground - std::max(def.riverbed_edge_height, l_ab * def.min_riverbed_slope));
+      m.ground = low + (high - low) * f;
+      m.water = dry_water(0.5 * (a.water + b.water));
       return r;
     }
     case EdgeType::land:
@@ -265,24 +264,18 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   hi = std::min(hi, def.sea_level + def.max_mountain_altitude);
   m.ground = lo > hi ? lo : std::clamp(estimate, lo, hi);
   // Drainage at every level: the new vertex drains along the edge to its lowest corner and
-  // stands above it by the drain rise at least, so it is not a pit
-  // now, and the drain split above keeps it from becoming one after any later split.
+  // stands above it by the drain rise at least, so it is not a pit now, and the drain split
+  // above keeps it from becoming one after any later split.
   int receiver = 0;
+  double lowest = outflow_level(a);
   for (int i = 1; i < 4; ++i) {
-    if (outflow_level(*corner[i]) < outflow_level(*corner[receiver])) receiver = i;
+    const double level_i = outflow_level(*corner[i]);
+    if (level_i < lowest) receiver = i, lowest = level_i;
   }
-  m.ground =
-      std::max(m.ground, outflow_level(*corner[receiver]) + rules.drain_rise(length[receiver]));
+  m.ground = std::max(m.ground, lowest + rules.drain_rise(length[receiver]));
   EdgeType* to[4] = {&r.half_a, &r.half_b, &r.spoke_t, &r.spoke_d};
   *to[receiver] = EdgeType::drain;
-  // Dry: the water surface stays below the ground, so a river's water meets its banks inside
-  // the triangles next to it instead of flooding them.
-  // The water surface of a dry vertex only says how far a neighbour's water reaches towards it:
-  // one riverbed slope (s_rb) per metre of edge below the ground makes a river of depth d end
-  // about d / s_rb from its vertex at every level, instead of flooding a fixed fraction of
-  // ever larger triangles at coarse levels.
-  m.water = std::min(m.water,
-                     m.ground - std::max(def.riverbed_edge_height, l_ab * def.min_riverbed_slope));
+  m.water = dry_water(m.water);
   return r;
 }
 

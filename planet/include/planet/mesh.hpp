@@ -19,6 +19,7 @@
 // vertices they need.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -55,6 +56,17 @@ struct Vertex {
   /// share; a river split's vertex drains what its upstream end does, a new arm's spring 0.
   float drainage_area = 0.0f;
 };
+
+/// Water stands on or flows through the vertex: sea, coast, river (springs included), or water
+/// above its ground.
+inline bool wet(const Vertex& v) {
+  return (v.flags & (kRiver | kCoast | kSea)) != 0 || v.water > v.ground;
+}
+
+/// The height water leaves a vertex at: its surface where wet, else its ground.
+inline double outflow_level(const Vertex& v) {
+  return wet(v) ? std::max(v.water, v.ground) : v.ground;
+}
 
 /// A triangle (v0, v1, v2), counter-clockwise seen from outside; (v0, v1) is its base.
 struct Tri {

@@ -93,6 +93,7 @@ class Planet {
   double detail_gain_ = 0.0;
   std::uint32_t detail_seed_ = 0;
   int first_detail_octave_ = 0;  ///< octaves before it are left to the mesh
+  double first_detail_amplitude_ = 0.0, first_detail_frequency_ = 0.0;  ///< of that octave
 };
 
 /// Where a group of nearby samples may start their descent instead of the octahedron: a
