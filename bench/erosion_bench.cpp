@@ -1,8 +1,10 @@
 // The erosion solver on one core (issue target: a 1024² grid ≤ 2 s): rough value-noise land of
 // 1 km relief over a 4 km square at 512², 1024² and 2048², default parameters but the example
-// scenes' hillslope diffusion (6: 30 diffusion sub-steps per step on the finest grid); and the peak
-// resident set after the largest (a counter, from getrusage). The drainage's lakes, channels and
-// carving on the same land (noise: many depressions, so the lake search works hardest).
+// scenes' hillslope diffusion (6: 30 diffusion sub-steps per step on the finest grid); the most
+// heap the call holds at once, its output included (heap_peak_MB: bench/heap_peak.hpp), and the
+// process's peak resident set (peak_rss_MB, from getrusage; earlier runs' pages count too). The
+// drainage's lakes, channels and carving on the same land (noise: many depressions, so the lake
+// search works hardest).
 #include <benchmark/benchmark.h>
 
 #include <sys/resource.h>
@@ -12,6 +14,7 @@
 #include <vector>
 
 #include "../tests/terrain/synthetic_land.hpp"
+#include "heap_peak.hpp"
 #include "terrain/erosion.hpp"
 #include "terrain/rivers.hpp"
 
@@ -30,10 +33,14 @@ void BM_Erosion(benchmark::State& state) {
   const ElevationGrid grid{side, side, 4000.0 / (side - 1), z, std::nullopt, {}};
   ErosionParams params;
   params.diffusion = 6.0;
+  std::size_t heap_peak = 0;
   for (auto _ : state) {
+    bench::reset_heap_peak();
     Result<std::vector<float>> out = erode(grid, params);
+    heap_peak = bench::heap_peak_since_reset();
     benchmark::DoNotOptimize(out.ok());
   }
+  state.counters["heap_peak_MB"] = static_cast<double>(heap_peak) / (1024.0 * 1024.0);
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   state.counters["peak_rss_MB"] = static_cast<double>(usage.ru_maxrss) / 1024.0;
@@ -54,8 +61,11 @@ void BM_Drainage(benchmark::State& state) {
   params.depth = 1.0;
   std::int64_t channel_cells = 0;
   int lakes = 0;
+  std::size_t heap_peak = 0;
   for (auto _ : state) {
+    bench::reset_heap_peak();
     Result<RiverNetwork> out = carve_rivers(grid, params);
+    heap_peak = bench::heap_peak_since_reset();
     benchmark::DoNotOptimize(out.ok());
     if (out) {
       lakes = out->lakes;
@@ -63,6 +73,7 @@ void BM_Drainage(benchmark::State& state) {
       for (const std::uint8_t c : out->channel) channel_cells += c;
     }
   }
+  state.counters["heap_peak_MB"] = static_cast<double>(heap_peak) / (1024.0 * 1024.0);
   state.counters["lakes"] = lakes;
   state.counters["channel_cells"] = static_cast<double>(channel_cells);
   state.SetItemsProcessed(state.iterations() * side * side);

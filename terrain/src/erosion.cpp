@@ -6,10 +6,9 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <deque>
 #include <queue>
 #include <string>
-
-#include "flood_entry.hpp"
 
 namespace terrain {
 namespace {
@@ -72,27 +71,50 @@ double portable_tan(double angle) {
   return sine / cosine;
 }
 
-/// Bilinear resampling between two grids over the same extent (corner samples coincide).
-std::vector<double> resample(std::span<const double> src, int sw, int sh, int dw, int dh) {
-  if (sw == dw && sh == dh) return {src.begin(), src.end()};
-  std::vector<double> out(static_cast<std::size_t>(dw) * static_cast<std::size_t>(dh));
-  const double sx = static_cast<double>(sw - 1) / (dw - 1);
-  const double sy = static_cast<double>(sh - 1) / (dh - 1);
+/// Frees a vector's storage (`v = {}` would keep it: that assigns an empty initializer list).
+template <typename T>
+void release(std::vector<T>& v) {
+  std::vector<T>().swap(v);
+}
+
+/// The bilinear sample at (x, y) of a grid (cell units, within it).
+double bilinear(std::span<const float> src, int sw, int sh, double x, double y) {
+  const int i0 = std::min(static_cast<int>(x), sw - 2);
+  const int j0 = std::min(static_cast<int>(y), sh - 2);
+  const double fx = x - i0, fy = y - j0;
+  const std::size_t a =
+      static_cast<std::size_t>(j0) * static_cast<std::size_t>(sw) + static_cast<std::size_t>(i0);
+  const std::size_t b = a + static_cast<std::size_t>(sw);
+  const double top = (1.0 - fx) * src[a] + fx * src[a + 1];
+  const double bottom = (1.0 - fx) * src[b] + fx * src[b + 1];
+  return (1.0 - fy) * top + fy * bottom;
+}
+
+/// Maps cell (i, j) of a dw × dh grid onto an sw × sh grid over the same extent (corner samples
+/// coincide) and samples it there.
+class Resampler {
+ public:
+  Resampler(std::span<const float> src, int sw, int sh, int dw, int dh)
+      : src_(src),
+        sw_(sw),
+        sh_(sh),
+        sx_(static_cast<double>(sw - 1) / (dw - 1)),
+        sy_(static_cast<double>(sh - 1) / (dh - 1)) {}
+  double operator()(int i, int j) const { return bilinear(src_, sw_, sh_, i * sx_, j * sy_); }
+
+ private:
+  std::span<const float> src_;
+  int sw_, sh_;
+  double sx_, sy_;
+};
+
+std::vector<float> resample(std::span<const float> src, int sw, int sh, int dw, int dh) {
+  const Resampler at(src, sw, sh, dw, dh);
+  std::vector<float> out(static_cast<std::size_t>(dw) * static_cast<std::size_t>(dh));
   for (int j = 0; j < dh; ++j) {
-    const double y = j * sy;
-    const int j0 = std::min(static_cast<int>(y), sh - 2);
-    const double fy = y - j0;
     for (int i = 0; i < dw; ++i) {
-      const double x = i * sx;
-      const int i0 = std::min(static_cast<int>(x), sw - 2);
-      const double fx = x - i0;
-      const std::size_t a = static_cast<std::size_t>(j0) * static_cast<std::size_t>(sw) +
-                            static_cast<std::size_t>(i0);
-      const std::size_t b = a + static_cast<std::size_t>(sw);
-      const double top = (1.0 - fx) * src[a] + fx * src[a + 1];
-      const double bottom = (1.0 - fx) * src[b] + fx * src[b + 1];
       out[static_cast<std::size_t>(j) * static_cast<std::size_t>(dw) +
-          static_cast<std::size_t>(i)] = (1.0 - fy) * top + fy * bottom;
+          static_cast<std::size_t>(i)] = static_cast<float>(at(i, j));
     }
   }
   return out;
@@ -120,34 +142,70 @@ int diffusion_substeps(double coefficient) {
   return coefficient > 0.0 ? static_cast<int>(std::ceil(coefficient / kStableDiffusionStep)) : 0;
 }
 
-/// One grid of the coarse-to-fine solve: heights in metres, lengths relative to the side L.
+/// The uplift pattern u in [0, 1] of an authored height: uniform, or rising with the height.
+struct UpliftPattern {
+  double uniform = 1.0;    ///< 1 − the uplift parameter
+  double with_height = 0;  ///< the uplift parameter
+  double base = 0, relief = 0;
+  double operator()(float authored) const {
+    const double share = relief > 0.0 ? std::clamp((authored - base) / relief, 0.0, 1.0) : 0.0;
+    return uniform + with_height * share;
+  }
+};
+
+/// A priority-flood queue entry: the lowest height first, then the lowest cell index, a total
+/// order, so no result depends on the heap's implementation. Eight bytes: the queue of a 2048²
+/// flood can hold a large share of the grid.
+struct FloodCell {
+  float value = 0.0f;
+  std::int32_t cell = 0;
+  bool operator>(const FloodCell& other) const {
+    if (value != other.value) return value > other.value;
+    return cell > other.cell;
+  }
+};
+
+/// One grid of the coarse-to-fine solve: heights in metres (float), lengths relative to the
+/// side L. Thirteen bytes per cell at most (heights, the stack order, drainage areas and one
+/// byte of flow direction and flags), so a 2048² solve fits in 64 MB: the arithmetic is in
+/// double, the stored heights in float, and each cell keeps a drop of ε ≥ four float ulps to its
+/// receiver.
 class Solver {
  public:
-  Solver(int width, int height, double cell_metres, double cell_relative)
+  /// The grid over `authored` (this level's input heights): outlets are its edge and, with a
+  /// sea level, the cells at or below it.
+  Solver(std::span<const float> authored, int width, int height, double cell_metres,
+         double cell_relative, std::optional<double> sea_level)
       : w_(width),
         h_(height),
         n_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height)),
         cell_metres_(cell_metres),
         cell_relative_(cell_relative),
-        receiver_(n_, -1),
-        order_(n_, 0),
-        count_(n_, 1),
-        donor_start_(n_ + 1, 0),
-        donors_(n_, 0) {}
-
-  std::vector<double> z;
-  std::vector<float> uplift;         ///< the uplift pattern u in [0, 1]
-  std::vector<std::uint8_t> outlet;  ///< fixed cells: the edge and the sea
-
-  /// Outlets: the grid's edge, and cells of `authored` at or below the sea level.
-  void mark_outlets(const std::vector<double>& authored, std::optional<double> sea_level) {
-    outlet.assign(n_, 0);
+        authored_(authored),
+        cell_(n_, kNoReceiver) {
+    for (int k = 0; k < 8; ++k) {
+      offset_[k] = static_cast<std::ptrdiff_t>(kD8Dy[k]) * width + kD8Dx[k];
+      const bool diagonal = kD8Dx[k] != 0 && kD8Dy[k] != 0;
+      distance_[k] = diagonal ? cell_relative * kSqrt2 : cell_relative;
+    }
     for (int j = 0; j < h_; ++j) {
       for (int i = 0; i < w_; ++i) {
         const std::size_t c = at(i, j);
         const bool edge = i == 0 || j == 0 || i == w_ - 1 || j == h_ - 1;
-        outlet[c] = edge || (sea_level && authored[c] <= *sea_level);
+        if (edge || (sea_level && authored[c] <= *sea_level)) cell_[c] = kOutlet;
       }
+    }
+  }
+
+  std::vector<float> z;
+
+  bool is_outlet(std::size_t c) const { return (cell_[c] & kDirectionMask) == kOutlet; }
+  std::span<const float> authored() const { return authored_; }
+
+  /// Outlets keep their authored heights.
+  void pin_outlets() {
+    for (std::size_t c = 0; c < n_; ++c) {
+      if (is_outlet(c)) z[c] = authored_[c];
     }
   }
 
@@ -158,21 +216,21 @@ class Solver {
     for (int j = 0; j < h_; ++j) {
       for (int i = 0; i < w_; ++i) {
         const std::size_t c = at(i, j);
-        receiver_[c] = -1;
-        if (outlet[c] != 0) continue;
+        if (is_outlet(c)) continue;
+        std::uint8_t receiver = kNoReceiver;
         double steepest = 0.0;
         const double diagonal_weight = rho8_diagonal_weight(i, j, w_);
         for (int k = 0; k < 8; ++k) {
-          const std::size_t nc = at(i + kD8Dx[k], j + kD8Dy[k]);  // interior: never off-grid
-          const double drop = z[c] - z[nc];
+          const double drop = static_cast<double>(z[c]) - z[neighbour(c, k)];  // interior cell
           if (!(drop > 0.0)) continue;
           const double slope = (kD8Dx[k] != 0 && kD8Dy[k] != 0) ? drop * diagonal_weight : drop;
-          if (receiver_[c] < 0 || slope > steepest) {
+          if (receiver == kNoReceiver || slope > steepest) {
             steepest = slope;
-            receiver_[c] = static_cast<std::int32_t>(nc);
+            receiver = static_cast<std::uint8_t>(k);
           }
         }
-        drains = drains && receiver_[c] >= 0;
+        cell_[c] = receiver;
+        drains = drains && receiver != kNoReceiver;
       }
     }
     return drains;
@@ -183,83 +241,60 @@ class Solver {
   /// fill closed depressions to their spill level. Pit cells go through a FIFO, merged with the
   /// heap by value (both streams are non-decreasing), which spares most heap operations.
   void fill(double epsilon) {
-    std::vector<std::uint8_t> closed(n_, 0);
-    std::priority_queue<FloodEntry, std::vector<FloodEntry>, std::greater<>> open;
-    std::vector<std::int32_t> pit;
-    std::size_t pit_head = 0;
-    std::uint64_t sequence = 0;
+    clear_scratch();
+    std::priority_queue<FloodCell, std::vector<FloodCell>, std::greater<>> open;
+    std::deque<std::int32_t> pit;  // a deque: it frees what it has passed
     for (std::size_t c = 0; c < n_; ++c) {
-      if (outlet[c] == 0) continue;
-      closed[c] = 1;
-      open.push({z[c], sequence++, static_cast<std::int32_t>(c)});
+      if (!is_outlet(c)) continue;
+      cell_[c] |= kClosed;
+      open.push({z[c], static_cast<std::int32_t>(c)});
     }
-    while (!open.empty() || pit_head < pit.size()) {
+    while (!open.empty() || !pit.empty()) {
       std::int32_t c = 0;
-      if (pit_head < pit.size() &&
-          (open.empty() || z[static_cast<std::size_t>(pit[pit_head])] <= open.top().value)) {
-        c = pit[pit_head++];
+      if (!pit.empty() &&
+          (open.empty() || z[static_cast<std::size_t>(pit.front())] <= open.top().value)) {
+        c = pit.front();
+        pit.pop_front();
       } else {
         c = open.top().cell;
         open.pop();
       }
       const int ci = c % w_;
       const int cj = c / w_;
-      const double raised = z[static_cast<std::size_t>(c)] + epsilon;
+      const auto raised = static_cast<float>(z[static_cast<std::size_t>(c)] + epsilon);
       for (int k = 0; k < 8; ++k) {
         const int ni = ci + kD8Dx[k];
         const int nj = cj + kD8Dy[k];
         if (ni < 0 || nj < 0 || ni >= w_ || nj >= h_) continue;
         const std::size_t nc = at(ni, nj);
-        if (closed[nc] != 0) continue;
-        closed[nc] = 1;
+        if ((cell_[nc] & kClosed) != 0) continue;
+        cell_[nc] |= kClosed;
         if (z[nc] <= raised) {
           z[nc] = raised;
           pit.push_back(static_cast<std::int32_t>(nc));
         } else {
-          open.push({z[nc], sequence++, static_cast<std::int32_t>(nc)});
+          open.push({z[nc], static_cast<std::int32_t>(nc)});
         }
       }
     }
   }
 
-  /// Routes, filling first where some cell does not drain.
+  /// Routes, filling first where some cell does not drain, then orders the cells.
   void route_filled(double epsilon) {
-    if (route()) return;
-    fill(epsilon);
-    [[maybe_unused]] const bool drains = route();
-    assert(drains && "a filled surface drains");
+    if (!route()) {
+      fill(epsilon);
+      [[maybe_unused]] const bool drains = route();
+      assert(drains && "a filled surface drains");
+    }
+    order_cells();
   }
 
-  /// Receivers before donors (breadth first from the outlets, donors in index order), then the
-  /// drainage area of every cell in cells.
+  /// The drainage area of every cell, in cells (route_filled first).
   void accumulate() {
-    std::fill(donor_start_.begin(), donor_start_.end(), 0);
-    for (std::size_t c = 0; c < n_; ++c) {
-      if (receiver_[c] >= 0) ++donor_start_[static_cast<std::size_t>(receiver_[c]) + 1];
-    }
-    for (std::size_t c = 0; c < n_; ++c) donor_start_[c + 1] += donor_start_[c];
-    std::vector<std::int32_t> next(donor_start_.begin(), donor_start_.end() - 1);
-    for (std::size_t c = 0; c < n_; ++c) {
-      if (receiver_[c] >= 0) {
-        donors_[static_cast<std::size_t>(next[static_cast<std::size_t>(receiver_[c])]++)] =
-            static_cast<std::int32_t>(c);
-      }
-    }
-    std::size_t tail = 0;
-    for (std::size_t c = 0; c < n_; ++c) {
-      if (outlet[c] != 0) order_[tail++] = static_cast<std::int32_t>(c);
-    }
-    for (std::size_t head = 0; head < tail; ++head) {
-      const auto c = static_cast<std::size_t>(order_[head]);
-      for (std::int32_t d = donor_start_[c]; d < donor_start_[c + 1]; ++d) {
-        order_[tail++] = donors_[static_cast<std::size_t>(d)];
-      }
-    }
-    assert(tail == n_ && "every cell drains to an outlet");
-    std::fill(count_.begin(), count_.end(), 1u);
-    for (std::size_t k = n_; k-- > 0;) {
-      const auto c = static_cast<std::size_t>(order_[k]);
-      if (receiver_[c] >= 0) count_[static_cast<std::size_t>(receiver_[c])] += count_[c];
+    area_.assign(n_, 1u);
+    for (const std::int32_t cell : order_) {
+      const auto c = static_cast<std::size_t>(cell);
+      if (const int k = direction(c); k < 8) area_[neighbour(c, k)] += area_[c];
     }
   }
 
@@ -274,28 +309,16 @@ class Solver {
     }
   }
 
-  double area_power(std::uint32_t cells) const {
-    if (cells <= kPowerTableCells) return powers_[cells];
-    return portable_pow(static_cast<double>(cells), concavity_) * cell_area_power_;
-  }
-
-  double distance(std::size_t from, std::size_t to) const {
-    const bool diagonal =
-        (from % static_cast<std::size_t>(w_)) != (to % static_cast<std::size_t>(w_)) &&
-        (from / static_cast<std::size_t>(w_)) != (to / static_cast<std::size_t>(w_));
-    return diagonal ? cell_relative_ * kSqrt2 : cell_relative_;
-  }
-
   /// max over cells of χ_u = Σ u δ / a^m along the path to the outlet: the steady state's relief
   /// per unit of λ (h = λ χ_u when U = K λ u).
-  double max_chi() const {
+  double max_chi(const UpliftPattern& uplift) const {
     std::vector<double> chi(n_, 0.0);
     double top = 0.0;
-    for (std::size_t k = 0; k < n_; ++k) {
+    for (std::size_t k = n_; k-- > 0;) {
       const auto c = static_cast<std::size_t>(order_[k]);
-      if (receiver_[c] < 0) continue;
-      const auto r = static_cast<std::size_t>(receiver_[c]);
-      chi[c] = chi[r] + uplift[c] * distance(c, r) / area_power(count_[c]);
+      const int d = direction(c);
+      if (d >= 8) continue;
+      chi[c] = chi[neighbour(c, d)] + uplift(authored_[c]) * distance_[d] / area_power(area_[c]);
       top = std::max(top, chi[c]);
     }
     return top;
@@ -303,36 +326,43 @@ class Solver {
 
   /// One implicit stream-power step (n = 1), receivers first: h_i ← (h_i + K λ u_i + F h_r) /
   /// (1 + F), F = K a_i^m / δ_i; each cell kept at least ε above its receiver.
-  void incise(double strength, double lambda, double epsilon) {
-    for (std::size_t k = 0; k < n_; ++k) {
+  void incise(double strength, double lambda, const UpliftPattern& uplift, double epsilon) {
+    for (std::size_t k = n_; k-- > 0;) {
       const auto c = static_cast<std::size_t>(order_[k]);
-      if (receiver_[c] < 0) continue;
-      const auto r = static_cast<std::size_t>(receiver_[c]);
-      const double f = strength * area_power(count_[c]) / distance(c, r);
-      const double next = (z[c] + strength * lambda * uplift[c] + f * z[r]) / (1.0 + f);
-      z[c] = std::max(next, z[r] + epsilon);
+      const int d = direction(c);
+      if (d >= 8) continue;
+      const double receiver = z[neighbour(c, d)];
+      const double f = strength * area_power(area_[c]) / distance_[d];
+      const double next =
+          (z[c] + strength * lambda * uplift(authored_[c]) + f * receiver) / (1.0 + f);
+      z[c] = static_cast<float>(std::max(next, receiver + epsilon));
     }
   }
 
   /// Explicit linear diffusion over the four neighbours (Jacobi), outlets fixed, in as many
-  /// sub-steps as keep it stable. Two buffers swapped per sub-step: the cells no sub-step writes
-  /// (edge, outlets) are the same in both.
+  /// sub-steps as keep it stable. In place: each row's old values are kept for the next row, and
+  /// the row below is still old when a row is written.
   void diffuse(double coefficient) {
     const int substeps = diffusion_substeps(coefficient);
     if (substeps == 0) return;
     const double each = coefficient / substeps;
-    std::vector<double> next = z;
+    const auto row = static_cast<std::size_t>(w_);
+    std::vector<float> above(row), current(row);
     for (int s = 0; s < substeps; ++s) {
+      std::copy_n(z.begin(), row, above.begin());
       for (int j = 1; j + 1 < h_; ++j) {
+        const std::size_t start = at(0, j);
+        std::copy_n(z.begin() + static_cast<std::ptrdiff_t>(start), row, current.begin());
         for (int i = 1; i + 1 < w_; ++i) {
-          const std::size_t c = at(i, j);
-          if (outlet[c] != 0) continue;
-          const double laplacian =
-              z[at(i - 1, j)] + z[at(i + 1, j)] + z[at(i, j - 1)] + z[at(i, j + 1)] - 4.0 * z[c];
-          next[c] = z[c] + each * laplacian;
+          const std::size_t c = start + static_cast<std::size_t>(i);
+          if (is_outlet(c)) continue;
+          const auto x = static_cast<std::size_t>(i);
+          const double laplacian = static_cast<double>(current[x - 1]) + current[x + 1] + above[x] +
+                                   z[c + row] - 4.0 * current[x];
+          z[c] = static_cast<float>(current[x] + each * laplacian);
         }
+        above.swap(current);
       }
-      z.swap(next);
     }
   }
 
@@ -344,34 +374,86 @@ class Solver {
     for (int j = 1; j + 1 < h_; ++j) {
       for (int i = 1; i + 1 < w_; ++i) {
         const std::size_t c = at(i, j);
-        if (outlet[c] != 0) continue;
+        if (is_outlet(c)) continue;
         double cap = z[c];
         for (int k = 0; k < 8; ++k) {
           const double run = (kD8Dx[k] != 0 && kD8Dy[k] != 0) ? diagonal : straight;
-          cap = std::min(cap, z[at(i + kD8Dx[k], j + kD8Dy[k])] + run);
+          cap = std::min(cap, z[neighbour(c, k)] + run);
         }
-        z[c] = cap;
+        z[c] = static_cast<float>(cap);
       }
     }
   }
 
-  const std::vector<std::int32_t>& receivers() const { return receiver_; }
-  const std::vector<std::int32_t>& order() const { return order_; }
+  /// Frees the drainage areas (the last stage does not need them, and needs the room).
+  void release_areas() { release(area_); }
+
+  /// Cells with donors after their receivers' donors: upstream first (route_filled first).
+  std::span<const std::int32_t> order() const { return order_; }
+  /// The receiver of cell c, or −1 for an outlet.
+  std::int64_t receiver(std::size_t c) const {
+    const int k = direction(c);
+    return k < 8 ? static_cast<std::int64_t>(neighbour(c, k)) : -1;
+  }
 
  private:
+  static constexpr std::uint8_t kDirectionMask = 0x0f;  ///< D8 index 0–7, or one of these:
+  static constexpr std::uint8_t kNoReceiver = 8;
+  static constexpr std::uint8_t kOutlet = 15;
+  static constexpr std::uint8_t kClosed = 0x10;    ///< scratch (fill): reached by the flood
+  static constexpr std::uint8_t kOneDonor = 0x10;  ///< scratch (order): donors not yet placed
+
   std::size_t at(int i, int j) const {
     return static_cast<std::size_t>(j) * static_cast<std::size_t>(w_) + static_cast<std::size_t>(i);
+  }
+  int direction(std::size_t c) const { return cell_[c] & kDirectionMask; }
+  std::size_t neighbour(std::size_t c, int k) const {
+    return static_cast<std::size_t>(static_cast<std::ptrdiff_t>(c) + offset_[k]);
+  }
+  void clear_scratch() {
+    for (std::uint8_t& cell : cell_) cell &= kDirectionMask;
+  }
+
+  /// Kahn's topological order of the flow graph, cells without donors first (in index order):
+  /// every cell comes after all its donors. Any such order gives the same areas and heights, as
+  /// each cell's update reads only its receiver; the donor counts live in the flags' high
+  /// nibble (at most eight).
+  void order_cells() {
+    clear_scratch();
+    for (std::size_t c = 0; c < n_; ++c) {
+      if (const int k = direction(c); k < 8) cell_[neighbour(c, k)] += kOneDonor;
+    }
+    order_.resize(n_);
+    std::size_t tail = 0;
+    for (std::size_t c = 0; c < n_; ++c) {
+      if (cell_[c] < kOneDonor) order_[tail++] = static_cast<std::int32_t>(c);
+    }
+    for (std::size_t head = 0; head < tail; ++head) {
+      const auto c = static_cast<std::size_t>(order_[head]);
+      const int k = direction(c);
+      if (k >= 8) continue;
+      const std::size_t r = neighbour(c, k);
+      cell_[r] -= kOneDonor;
+      if (cell_[r] < kOneDonor) order_[tail++] = static_cast<std::int32_t>(r);
+    }
+    assert(tail == n_ && "the flow graph is a forest");
+  }
+
+  double area_power(std::uint32_t cells) const {
+    if (cells <= kPowerTableCells) return powers_[cells];
+    return portable_pow(static_cast<double>(cells), concavity_) * cell_area_power_;
   }
 
   int w_, h_;
   std::size_t n_;
   double cell_metres_, cell_relative_;
-  double concavity_ = 0.5, cell_area_power_ = 1.0;
-  std::vector<std::int32_t> receiver_;
+  std::span<const float> authored_;
+  std::vector<std::uint8_t> cell_;  ///< low nibble: direction; high nibble: scratch
   std::vector<std::int32_t> order_;
-  std::vector<std::uint32_t> count_;
-  std::vector<std::int32_t> donor_start_;
-  std::vector<std::int32_t> donors_;
+  std::vector<std::uint32_t> area_;
+  std::ptrdiff_t offset_[8] = {};
+  double distance_[8] = {};
+  double concavity_ = 0.5, cell_area_power_ = 1.0;
   std::vector<double> powers_;
 };
 
@@ -468,18 +550,19 @@ Status validate_erosion(const ElevationGrid& grid, const ErosionParams& p) {
 Result<std::vector<float>> erode(const ElevationGrid& grid, const ErosionParams& p) {
   if (Status valid = validate_erosion(grid, p); !valid) return valid.error();
   const int width = grid.width, height = grid.height;
-  const std::vector<double> input(grid.elevation.begin(), grid.elevation.end());
+  const std::span<const float> input = grid.elevation;
 
   // Base and relief: the sea level (or the lowest cell) to the highest cell.
   double top = input.front(), base = input.front();
-  for (double v : input) {
-    top = std::max(top, v);
-    base = std::min(base, v);
+  for (const float v : input) {
+    top = std::max(top, static_cast<double>(v));
+    base = std::min(base, static_cast<double>(v));
   }
   if (p.sea_level) base = *p.sea_level;
   const double relief = std::max(top - base, 0.0);
+  const UpliftPattern uplift{1.0 - p.uplift, p.uplift, base, relief};
   // ε: a drop every cell keeps to its receiver, four float32 ulps of the largest magnitude at
-  // least, so the result drains in float32 too.
+  // least, so heights stored in float32 keep draining.
   const double magnitude = std::max({std::fabs(top), std::fabs(base), 1.0});
   const double epsilon =
       std::max(1e-3, 4.0 * (std::nextafter(static_cast<float>(magnitude), INFINITY) -
@@ -487,76 +570,87 @@ Result<std::vector<float>> erode(const ElevationGrid& grid, const ErosionParams&
   const double talus_slope = portable_tan(p.talus_angle * kPi / 180.0);
   const double side = grid.cell_size * (std::max(width, height) - 1);
 
+  // Coarse to fine. Each level's input is the authored grid resampled (the finest reads it in
+  // place); the coarser level's result and input are freed before the finer level's flow graph
+  // is built, so the finest level's thirteen bytes per cell are the peak.
   const std::vector<ErosionLevel> levels = erosion_levels(width, height, p.iterations);
-  std::vector<double> z;
-  std::vector<double> coarser_authored;  // the input as the coarser grid held it
+  std::vector<float> z;                 // the coarser level's result
+  std::vector<float> coarser_authored;  // the coarser level's input
+  std::vector<float> authored_storage;  // this level's input, but at the finest level
   int zw = 0, zh = 0;
   double lambda = 0.0;
+  std::optional<Solver> solver;
   for (std::size_t li = levels.size(); li-- > 0;) {
     const ErosionLevel& level = levels[li];
     const double cell_metres =
         grid.cell_size * (std::max(width, height) - 1) / (std::max(level.width, level.height) - 1);
-    Solver solver(level.width, level.height, cell_metres, cell_metres / side);
-    const std::vector<double> authored = resample(input, width, height, level.width, level.height);
-    const std::size_t n = authored.size();
-    solver.mark_outlets(authored, p.sea_level);
-    solver.uplift.assign(n, 0.0f);
-    for (std::size_t c = 0; c < n; ++c) {
-      const double share = relief > 0.0 ? std::clamp((authored[c] - base) / relief, 0.0, 1.0) : 0.0;
-      solver.uplift[c] = static_cast<float>((1.0 - p.uplift) + p.uplift * share);
-    }
+    if (li > 0) authored_storage = resample(input, width, height, level.width, level.height);
+    const std::span<const float> authored =
+        li > 0 ? std::span<const float>(authored_storage) : input;
+    solver.emplace(authored, level.width, level.height, cell_metres, cell_metres / side,
+                   p.sea_level);
     if (z.empty()) {
-      solver.z = authored;
+      solver->z.assign(authored.begin(), authored.end());
     } else {
       // The coarser result, plus the input's detail that the coarser grid could not hold: what
       // the coarse steps carved stays carved, and what they never saw is there to shape.
-      solver.z = resample(z, zw, zh, level.width, level.height);
-      const std::vector<double> coarse_input =
-          resample(coarser_authored, zw, zh, level.width, level.height);
-      for (std::size_t c = 0; c < n; ++c) solver.z[c] += authored[c] - coarse_input[c];
+      solver->z.resize(authored.size());
+      const Resampler coarse_result(z, zw, zh, level.width, level.height);
+      const Resampler coarse_input(coarser_authored, zw, zh, level.width, level.height);
+      for (int j = 0; j < level.height; ++j) {
+        for (int i = 0; i < level.width; ++i) {
+          const std::size_t c =
+              static_cast<std::size_t>(j) * static_cast<std::size_t>(level.width) +
+              static_cast<std::size_t>(i);
+          solver->z[c] =
+              static_cast<float>(coarse_result(i, j) + (authored[c] - coarse_input(i, j)));
+        }
+      }
+      release(z);
+      release(coarser_authored);
     }
-    // Outlets keep the authored heights at every level.
-    for (std::size_t c = 0; c < n; ++c) {
-      if (solver.outlet[c] != 0) solver.z[c] = authored[c];
-    }
-    solver.prepare_powers(p.concavity);
+    solver->pin_outlets();  // outlets keep the authored heights at every level
+    solver->prepare_powers(p.concavity);
     const double diffusion = level_diffusion(p.diffusion, width, height, level);
     for (int step = 0; step < level.steps; ++step) {
-      solver.diffuse(diffusion);
-      solver.route_filled(epsilon);
-      solver.accumulate();
-      if (z.empty() && step == 0) {
+      solver->diffuse(diffusion);
+      solver->route_filled(epsilon);
+      solver->accumulate();
+      if (li + 1 == levels.size() && step == 0) {
         // U = K λ u with λ from the first network: the steady state spans the relief.
-        const double chi = solver.max_chi();
+        const double chi = solver->max_chi(uplift);
         lambda = chi > 0.0 ? relief / chi : 0.0;
       }
-      solver.incise(p.strength, lambda, epsilon);
-      solver.talus(talus_slope);
+      solver->incise(p.strength, lambda, uplift, epsilon);
+      solver->talus(talus_slope);
     }
-    z = std::move(solver.z);
-    coarser_authored = authored;
-    zw = level.width;
-    zh = level.height;
+    if (li > 0) {
+      z = std::move(solver->z);
+      coarser_authored = std::move(authored_storage);
+      solver.reset();
+      zw = level.width;
+      zh = level.height;
+    }
   }
 
-  // The authored relief exactly, then the talus slope again, then drainage in float32.
-  Solver last(width, height, grid.cell_size, grid.cell_size / side);
-  last.mark_outlets(input, p.sea_level);
+  // The finest level's solver goes on: the authored relief exactly, then the talus slope again,
+  // then drainage in float32.
+  Solver& last = *solver;
+  last.release_areas();
   double high = base;
   for (std::size_t c = 0; c < input.size(); ++c) {
-    if (last.outlet[c] == 0) high = std::max(high, z[c]);
+    if (!last.is_outlet(c)) high = std::max(high, static_cast<double>(last.z[c]));
   }
-  last.z = std::move(z);
   if (high > base) {
     // Stretched about the outlet each cell drains to, so every path keeps descending: stretching
     // about one base would lower cells next to a high edge below it, and filling would flatten
     // them.
     last.route_filled(epsilon);
-    last.accumulate();
-    std::vector<double> outlet_height(last.z.size(), 0.0);
-    for (const std::int32_t cell : last.order()) {
-      const auto c = static_cast<std::size_t>(cell);
-      const std::int32_t r = last.receivers()[c];
+    std::vector<float> outlet_height(last.z.size());
+    const std::span<const std::int32_t> order = last.order();
+    for (std::size_t k = order.size(); k-- > 0;) {
+      const auto c = static_cast<std::size_t>(order[k]);
+      const std::int64_t r = last.receiver(c);
       outlet_height[c] = r < 0 ? last.z[c] : outlet_height[static_cast<std::size_t>(r)];
     }
     // The largest stretch that keeps every cell at or below the authored top: the cell that
@@ -564,32 +658,32 @@ Result<std::vector<float>> erode(const ElevationGrid& grid, const ErosionParams&
     // stands further above it.)
     double stretch = INFINITY;
     for (std::size_t c = 0; c < last.z.size(); ++c) {
-      const double above = last.z[c] - outlet_height[c];
-      if (last.outlet[c] == 0 && above > 0.0) {
+      const double above = static_cast<double>(last.z[c]) - outlet_height[c];
+      if (!last.is_outlet(c) && above > 0.0) {
         stretch = std::min(stretch, (top - outlet_height[c]) / above);
       }
     }
     if (!std::isfinite(stretch)) stretch = 1.0;
     for (std::size_t c = 0; c < last.z.size(); ++c) {
-      if (last.outlet[c] == 0) {
-        last.z[c] = outlet_height[c] + (last.z[c] - outlet_height[c]) * stretch;
+      if (!last.is_outlet(c)) {
+        last.z[c] = static_cast<float>(
+            outlet_height[c] + (static_cast<double>(last.z[c]) - outlet_height[c]) * stretch);
       }
     }
   }
 
   last.talus(talus_slope);
   last.route_filled(epsilon);
-  last.accumulate();
-  std::vector<float> out(last.z.size());
-  for (const std::int32_t cell : last.order()) {
-    const auto c = static_cast<std::size_t>(cell);
-    out[c] = static_cast<float>(last.z[c]);
-    const std::int32_t r = last.receivers()[c];
+  std::vector<float>& out = last.z;
+  const std::span<const std::int32_t> order = last.order();
+  for (std::size_t k = order.size(); k-- > 0;) {
+    const auto c = static_cast<std::size_t>(order[k]);
+    const std::int64_t r = last.receiver(c);
     if (r >= 0 && !(out[c] > out[static_cast<std::size_t>(r)])) {
       out[c] = std::nextafter(out[static_cast<std::size_t>(r)], INFINITY);
     }
   }
-  return out;
+  return std::move(out);
 }
 
 }  // namespace terrain
