@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "material_model.hpp"
+
 namespace terrain {
 
 namespace {
@@ -61,7 +63,7 @@ float sun_visibility(float closest, Vec3 sun) {
   // Height over distance, times the cosine of the sun's elevation, is the angle by which the ray
   // cleared the terrain (for small angles).
   const float level = std::sqrt(sun.x * sun.x + sun.y * sun.y);
-  const float s = ramp(closest * level, 0.0f, kPenumbra);
+  const float s = material_model::ramp(closest * level, 0.0f, kPenumbra);
   return s * s * (3.0f - 2.0f * s);
 }
 

@@ -66,6 +66,38 @@ Lakes find_lakes(const Drainage& d, std::span<const float> elevation, double min
   return out;
 }
 
+/// 1 within kWaterReachCells (Chebyshev distance) of a cell whose water stands above its ground,
+/// else 0: a square dilation, rows then columns.
+std::vector<float> water_weight(const std::vector<float>& water, const std::vector<float>& ground,
+                                int w, int h) {
+  const std::size_t n = water.size();
+  std::vector<std::uint8_t> near(n, 0), wet(n, 0);
+  for (std::size_t c = 0; c < n; ++c) wet[c] = water[c] > ground[c] ? 1 : 0;
+  const auto at = [w](int i, int j) {
+    return static_cast<std::size_t>(j) * static_cast<std::size_t>(w) + static_cast<std::size_t>(i);
+  };
+  for (int j = 0; j < h; ++j) {  // along rows
+    for (int i = 0; i < w; ++i) {
+      if (wet[at(i, j)] == 0) continue;
+      for (int x = std::max(i - kWaterReachCells, 0); x <= std::min(i + kWaterReachCells, w - 1);
+           ++x) {
+        near[at(x, j)] = 1;
+      }
+    }
+  }
+  std::vector<float> weight(n, 0.0f);
+  for (int j = 0; j < h; ++j) {  // then along columns
+    for (int i = 0; i < w; ++i) {
+      if (near[at(i, j)] == 0) continue;
+      for (int y = std::max(j - kWaterReachCells, 0); y <= std::min(j + kWaterReachCells, h - 1);
+           ++y) {
+        weight[at(i, y)] = 1.0f;
+      }
+    }
+  }
+  return weight;
+}
+
 }  // namespace
 
 Status validate_rivers(const ElevationGrid& grid, const RiverParams& p) {
@@ -265,6 +297,7 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
     }
     out.water[c] = surface;
   }
+  out.water_weight = water_weight(out.water, out.terrain, w, h);
   out.lake = std::move(lakes.lake);
   out.strahler = strahler_orders(out.downstream, d.order, out.channel);
   return out;

@@ -7,6 +7,7 @@
 #include <numbers>
 #include <thread>
 
+#include "material_model.hpp"
 #include "terrain/lighting.hpp"
 #include "terrain/material.hpp"
 
@@ -268,7 +269,8 @@ Rgb shade(const FieldSample& s, Vec3 n, Vec3 sun, const Ray& ray, float t, float
   input.height = range.width() > 0 ? (z - range.lo) / range.width() : 0.5f;
   input.northness = northness(s.elevation_gradient.x, s.elevation_gradient.y);
   input.water = z < water_top;
-  input.shore = input.water ? 0.0f : 1.0f - ramp(z - water_top, 0.0f, shore_band_for(range));
+  input.shore =
+      input.water ? 0.0f : 1.0f - material_model::ramp(z - water_top, 0.0f, shore_band_for(range));
   Rgb colour = lit_surface(material_albedo(input, material), n, sun, sun_visible, sky_visible);
   if (input.water) colour = water_surface(colour, ray.direction, sun, sun_visible);
   return aerial_perspective(colour, ray.direction, t, kVisibility * span, sun);
@@ -417,9 +419,9 @@ Picture render(const Program& program, const Box2& area, const Camera& camera,
           picture.depth[at] = hit.t;
         }
         steps += pixel_steps;
-        picture.rgb[at * 3 + 0] = colour_byte(color.r);
-        picture.rgb[at * 3 + 1] = colour_byte(color.g);
-        picture.rgb[at * 3 + 2] = colour_byte(color.b);
+        picture.rgb[at * 3 + 0] = material_model::colour_byte(color.r);
+        picture.rgb[at * 3 + 1] = material_model::colour_byte(color.g);
+        picture.rgb[at * 3 + 2] = material_model::colour_byte(color.b);
       }
       ++rows_done;
     }

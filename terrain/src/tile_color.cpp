@@ -5,6 +5,8 @@
 #include <limits>
 #include <string>
 
+#include "material_model.hpp"
+#include "simd.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/material.hpp"
 #include "tile_encoding_checks.hpp"
@@ -42,6 +44,72 @@ Status check_inputs(const HeightTile& tile, const ColorTileInputs& inputs) {
 
 constexpr float kNoWater = std::numeric_limits<float>::quiet_NaN();
 
+/// One row of a colour tile and what colours it.
+struct ColourRow {
+  const float* ground = nullptr;
+  const float* slope_east = nullptr;
+  const float* slope_north = nullptr;
+  const float* surface = nullptr;  ///< the water's surface per sample, NaN where none is near
+  int count = 0;
+  float polar = 0.0f;  ///< the row's latitude's sine on planets (signed), 0 on scenes
+  float lo = 0.0f, width = 0.0f, shore_band = 0.0f, z_factor = 1.0f;
+  Vec3 sun;
+  const float* material = nullptr;  ///< the packed material
+};
+
+/// Colours one row into three channel rows. Branch-free (material_model.hpp), so GCC
+/// vectorises it; `exaggerated`: the light sees the slopes times z_factor rather than the
+/// ground's own normal.
+template <bool exaggerated>
+TERRAIN_SIMD_INLINE void colour_row_kernel(const ColourRow& row, std::uint8_t* __restrict red,
+                                           std::uint8_t* __restrict green,
+                                           std::uint8_t* __restrict blue) {
+  const float polar = std::abs(row.polar);
+  // South of the equator the slopes that face the pole, and keep their snow, face south.
+  const std::uint32_t southern = simd::mask_of(row.polar < 0.0f);
+  const std::uint32_t has_relief = simd::mask_of(row.width > 0.0f);
+  const std::uint32_t has_shores = simd::mask_of(row.shore_band > 0.0f);
+  for (int i = 0; i < row.count; ++i) {
+    const float ground = row.ground[i];
+    const float east = row.slope_east[i], north = row.slope_north[i];
+    // NaN (no water near) compares false both ways: neither under water nor on a shore.
+    const float surface = row.surface[i];
+    MaterialInput input;
+    input.water = surface > ground;
+    input.shore =
+        simd::select(simd::mask_of(ground >= surface) & has_shores,
+                     1.0f - material_model::ramp(ground - surface, 0.0f, row.shore_band), 0.0f);
+    input.height = simd::select(has_relief, (ground - row.lo) / row.width, 0.5f);
+    const float facing = material_model::northness(east, north);
+    input.northness = simd::select(southern, -facing, facing);
+    input.polar = polar;
+    // The slope of the ground itself; the light sees it exaggerated by z_factor.
+    const Vec3 normal = normalise({-east, -north, 1.0f});
+    input.slope = std::sqrt(1.0f - material_model::at_most_one(normal.z * normal.z));
+    Vec3 lit = normal;
+    if constexpr (exaggerated) {
+      lit = normalise({-row.z_factor * east, -row.z_factor * north, 1.0f});
+    }
+    const std::uint32_t water = simd::mask_of(input.water);
+    lit = {simd::select(water, 0.0f, lit.x), simd::select(water, 0.0f, lit.y),
+           simd::select(water, 1.0f, lit.z)};
+    const Rgb albedo = material_model::albedo(input, row.material);
+    const float light = material_model::sun_light(lit, row.sun);
+    red[i] = material_model::colour_byte(albedo.r * light);
+    green[i] = material_model::colour_byte(albedo.g * light);
+    blue[i] = material_model::colour_byte(albedo.b * light);
+  }
+}
+
+TERRAIN_SIMD_CLONES void colour_row(const ColourRow& row, std::uint8_t* __restrict red,
+                                    std::uint8_t* __restrict green, std::uint8_t* __restrict blue) {
+  if (row.z_factor == 1.0f) {
+    colour_row_kernel<false>(row, red, green, blue);
+  } else {
+    colour_row_kernel<true>(row, red, green, blue);
+  }
+}
+
 }  // namespace
 
 Result<std::vector<std::uint8_t>> color_pixels(const HeightTile& tile,
@@ -49,44 +117,34 @@ Result<std::vector<std::uint8_t>> color_pixels(const HeightTile& tile,
   return guarded("cannot colour the tile", [&]() -> Result<Bytes> {
     if (Status ok = check_inputs(tile, inputs); !ok) return ok.error();
     const auto [east, north, up] = towards_light(inputs.light);
-    const Vec3 sun{static_cast<float>(east), static_cast<float>(north), static_cast<float>(up)};
-    const float z_factor = static_cast<float>(inputs.light.z_factor);
-    const float lo = inputs.relief.lo;
-    const float width = inputs.relief.width();
     const PackedMaterial material = pack_material(inputs.material);
-    const std::size_t row_length = static_cast<std::size_t>(tile.width);
+    ColourRow row;
+    row.count = tile.width;
+    row.lo = inputs.relief.lo;
+    row.width = inputs.relief.width();
+    row.shore_band = inputs.shore_band;
+    row.z_factor = static_cast<float>(inputs.light.z_factor);
+    row.sun = {static_cast<float>(east), static_cast<float>(north), static_cast<float>(up)};
+    row.material = material.data();
+    const auto row_length = static_cast<std::size_t>(tile.width);
+    const std::vector<float> no_water(inputs.water_surface.empty() ? row_length : 0, kNoWater);
+    std::vector<std::uint8_t> channels(3 * row_length);
     Bytes rgb(sample_count(tile) * 3);
-    for (std::size_t i = 0; i < tile.elevation.size(); ++i) {
-      const float ground = tile.elevation[i];
-      // NaN (no water near) compares false both ways: neither under water nor on a shore.
-      const float surface = inputs.water_surface.empty() ? kNoWater : inputs.water_surface[i];
-      MaterialInput input;
-      input.water = surface > ground;
-      input.shore = ground >= surface && inputs.shore_band > 0.0f
-                        ? 1.0f - ramp(ground - surface, 0.0f, inputs.shore_band)
-                        : 0.0f;
-      input.height = width > 0.0f ? (ground - lo) / width : 0.5f;
-      input.northness = northness(tile.slope_east[i], tile.slope_north[i]);
-      if (!inputs.polar.empty()) {
-        // South of the equator the slopes that face the pole, and keep their snow, face south.
-        const float polar = inputs.polar[i / row_length];
-        input.polar = std::abs(polar);
-        if (polar < 0.0f) input.northness = -input.northness;
+    for (int j = 0; j < tile.height; ++j) {
+      const std::size_t start = static_cast<std::size_t>(j) * row_length;
+      row.ground = tile.elevation.data() + start;
+      row.slope_east = tile.slope_east.data() + start;
+      row.slope_north = tile.slope_north.data() + start;
+      row.surface =
+          inputs.water_surface.empty() ? no_water.data() : inputs.water_surface.data() + start;
+      row.polar = inputs.polar.empty() ? 0.0f : inputs.polar[static_cast<std::size_t>(j)];
+      colour_row(row, channels.data(), channels.data() + row_length,
+                 channels.data() + 2 * row_length);
+      for (std::size_t i = 0; i < row_length; ++i) {
+        rgb[3 * (start + i)] = channels[i];
+        rgb[3 * (start + i) + 1] = channels[row_length + i];
+        rgb[3 * (start + i) + 2] = channels[2 * row_length + i];
       }
-      // The slope of the ground itself; the light sees it exaggerated by z_factor.
-      const Vec3 normal = normalise({-tile.slope_east[i], -tile.slope_north[i], 1.0f});
-      input.slope = std::sqrt(1.0f - std::min(1.0f, normal.z * normal.z));
-      // Without exaggeration the light sees the ground's own normal (the same numbers).
-      const Vec3 lit =
-          input.water ? Vec3{0.0f, 0.0f, 1.0f}
-          : z_factor == 1.0f
-              ? normal
-              : normalise({-z_factor * tile.slope_east[i], -z_factor * tile.slope_north[i], 1.0f});
-      const Rgb albedo = material_albedo(input, material);
-      const float light = sun_light(lit, sun);
-      rgb[3 * i] = colour_byte(albedo.r * light);
-      rgb[3 * i + 1] = colour_byte(albedo.g * light);
-      rgb[3 * i + 2] = colour_byte(albedo.b * light);
     }
     return rgb;
   });

@@ -262,7 +262,7 @@ Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address
   const bool color = is_color(format);
   Result<HeightTile> generated =
       color ? generator_.height_tile_with_water(request_for(scheme, address, format, options),
-                                                extras.water_surface)
+                                                extras.water_surface, constants_.shore_band)
             : generator_.height_tile(request_for(scheme, address, format, options));
   if (!generated) return generated.error();
   if (format == TileFormat::quantized_mesh) {

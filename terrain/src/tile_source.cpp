@@ -292,7 +292,8 @@ void TileGenerator::place_samples(HeightTile& tile, std::vector<std::uint8_t>& m
 void TileGenerator::evaluate(Evaluator& evaluator, const HeightTile& tile,
                              const std::vector<std::uint8_t>& mapped, float spacing,
                              std::vector<float>& elevation, std::vector<float>* gx,
-                             std::vector<float>* gy, std::vector<float>* weight) {
+                             std::vector<float>* gy, std::vector<float>* weight,
+                             const BlockFilter& skip) {
   constexpr int kSide = 8;  // 8×8 = kBlockSize points per block: compact boxes cull well
   PointBlock block;
   FieldBlock out;
@@ -313,6 +314,7 @@ void TileGenerator::evaluate(Evaluator& evaluator, const HeightTile& tile,
       }
       if (block.count == 0) continue;
       block.recompute_box();
+      if (skip && skip(block, index)) continue;
       evaluator.evaluate(block, out);
       const auto scatter = [&](const float* values, std::vector<float>* to) {
         if (to == nullptr) return;
@@ -406,7 +408,8 @@ Result<HeightTile> TileGenerator::height_tile(const TileRequest& request,
 }
 
 Result<HeightTile> TileGenerator::height_tile_with_water(const TileRequest& request,
-                                                         std::vector<float>& water_surface) {
+                                                         std::vector<float>& water_surface,
+                                                         float depth_of_interest) {
   water_surface.clear();
   std::vector<std::uint8_t> mapped;  // the samples' positions are placed once, for both trees
   Result<HeightTile> terrain = height_tile(request, mapped);
@@ -414,8 +417,22 @@ Result<HeightTile> TileGenerator::height_tile_with_water(const TileRequest& requ
   const HeightTile& tile = *terrain;
   water_surface.assign(tile.elevation.size(), -1e30f);
   std::vector<float> weight(tile.elevation.size(), 0.0f);
-  evaluate(*water_, tile, mapped, static_cast<float>(tile.ground_spacing), water_surface, nullptr,
-           nullptr, &weight);
+  const auto spacing = static_cast<float>(tile.ground_spacing);
+  // Most of a scene is dry: where the water's bounds over a block lie deeper below its ground
+  // than the caller looks, the block keeps weight 0 (NaN below) without being evaluated. The
+  // bounds are sound for the float evaluation; the margin covers their own rounding.
+  const auto out_of_interest = [&](const PointBlock& block, const int* index) {
+    float lowest_ground = INFINITY;
+    for (int k = 0; k < block.count; ++k) {
+      lowest_ground = std::min(lowest_ground, tile.elevation[static_cast<std::size_t>(index[k])]);
+    }
+    const NodeBounds bounds = water_->bounds({block.box, spacing, spacing});
+    const float top = bounds.elevation.hi;
+    const float margin = 1e-3f + 1e-5f * std::max(std::abs(top), std::abs(lowest_ground));
+    return bounds.weight.hi < 0.5f || top + margin < lowest_ground - depth_of_interest;
+  };
+  evaluate(*water_, tile, mapped, spacing, water_surface, nullptr, nullptr, &weight,
+           std::isfinite(depth_of_interest) ? BlockFilter(out_of_interest) : BlockFilter());
   for (std::size_t i = 0; i < water_surface.size(); ++i) {
     if (!(weight[i] >= 0.5f)) water_surface[i] = std::numeric_limits<float>::quiet_NaN();
   }
@@ -427,7 +444,7 @@ Result<std::vector<std::uint8_t>> TileGenerator::water_mask(TileScheme scheme,
   if (!water_) return std::vector<std::uint8_t>{0};
   std::vector<float> surface;
   Result<HeightTile> terrain =
-      height_tile_with_water({scheme, address, SampleLayout::cell_centres, 256, 0}, surface);
+      height_tile_with_water({scheme, address, SampleLayout::cell_centres, 256, 0}, surface, 0.0f);
   if (!terrain) return terrain.error();
   std::vector<std::uint8_t> mask(surface.size());
   bool any_land = false, any_water = false;

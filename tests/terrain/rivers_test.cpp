@@ -265,6 +265,52 @@ TEST(DrainageNode, PutsItsLakeAndRiversInTheWaterLayer) {
   EXPECT_LT(wet_cells, 64 * 64 / 4);
 }
 
+TEST(DrainageNode, DryLandAwayFromWaterHasNoWaterSurface) {
+  // Dry cells carry a surface kDryDepth below the ground so that shorelines interpolate; far
+  // from water the layer's weight is 0, or every dry slope would be a metre above water (and
+  // pictures and colour tiles would paint it as a shore: 36% of river-lake's colour tile was).
+  Result<Scene> scene = parse_text(kDrainedScene);
+  ASSERT_TRUE(scene.ok()) << scene.error().pointer << ": " << scene.error().message;
+  const Program terrain = *compile(*scene);
+  const Program water = *compile_water(*scene);
+  Evaluator ground(terrain), surface(water);
+  int with_surface = 0, dry_with_surface = 0, wet = 0;
+  for (int j = 0; j < 64; ++j) {
+    for (int i = 0; i < 64; ++i) {
+      const Vec2 p{-1000.0f + 2000.0f * static_cast<float>(i) / 63,
+                   -1000.0f + 2000.0f * static_cast<float>(j) / 63};
+      const FieldSample s = surface.sample(p, 1.0f);
+      if (!(s.weight >= 0.5f)) continue;
+      ++with_surface;
+      const bool under = s.elevation > ground.sample(p, 1.0f).elevation;
+      wet += under ? 1 : 0;
+      dry_with_surface += under ? 0 : 1;
+    }
+  }
+  EXPECT_GT(wet, 20);
+  // Banks within a few cells of the water keep a surface (its shore); the rest of the land none.
+  EXPECT_LT(with_surface, 64 * 64 / 2);
+  EXPECT_LT(dry_with_surface, 64 * 64 / 3);
+}
+
+TEST(Rivers, WaterWeighsOneNearWaterAndNothingFarFromIt) {
+  const RiverNetwork r = carve_or_die(valley_land());
+  ASSERT_EQ(r.water_weight.size(), r.water.size());
+  std::vector<int> wet_cells;
+  for (std::size_t c = 0; c < r.water.size(); ++c) {
+    if (r.water[c] > r.terrain[c]) wet_cells.push_back(static_cast<int>(c));
+  }
+  ASSERT_GT(wet_cells.size(), 50u);
+  for (std::size_t c = 0; c < r.water.size(); ++c) {
+    const int i = static_cast<int>(c) % kSide, j = static_cast<int>(c) / kSide;
+    int nearest = kSide;  // Chebyshev distance to the nearest wet cell
+    for (const int w : wet_cells) {
+      nearest = std::min(nearest, std::max(std::abs(w % kSide - i), std::abs(w / kSide - j)));
+    }
+    EXPECT_EQ(r.water_weight[c], nearest <= kWaterReachCells ? 1.0f : 0.0f) << i << ", " << j;
+  }
+}
+
 TEST(DrainageNode, ItsSurfaceHasNoPitsOutsideItsWater) {
   Result<Scene> scene = parse_text(kDrainedScene);
   ASSERT_TRUE(scene.ok());

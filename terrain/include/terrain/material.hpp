@@ -28,11 +28,6 @@ struct Rgb {
 /// a + (b − a)·t per channel, in that order (what the GLSL twin writes out too).
 Rgb mix(Rgb a, Rgb b, float t);
 
-/// clamp((x − lo) / (hi − lo), 0, 1): the linear ramp the model blends with.
-inline float ramp(float x, float lo, float hi) {
-  return std::clamp((x - lo) / (hi - lo), 0.0f, 1.0f);
-}
-
 /// The parameters of the material model (docs/material.md): the colours of its covers and
 /// where each takes over. A scene or planet may set any of them ("material" in its JSON); the
 /// defaults are these. Heights are fractions of the relief (0 its lowest, 1 its highest), slopes
@@ -170,28 +165,13 @@ float shore_band_for(Interval relief);
 /// (wholly from 55°), snow from 80 %, 10 % lower facing north.
 Rgb material_albedo(const MaterialInput& input, const PackedMaterial& material);
 
-// The per-pixel helpers below are inline: colour tiles call them for every sample.
-
 /// v scaled to unit length (v must not be zero): the normals the model and the tracer light.
 inline Vec3 normalise(Vec3 v) {
   const float l = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
   return {v.x / l, v.y / l, v.z / l};
 }
 
-/// The light a surface with unit normal `normal` receives from a sun in unit direction `sun`:
-/// 0.30 of ambient light plus 0.75 of the cosine of the angle between them (none from behind).
-inline float sun_light(Vec3 normal, Vec3 sun) {
-  const float diffuse = std::max(0.0f, normal.x * sun.x + normal.y * sun.y + normal.z * sun.z);
-  return 0.30f + 0.75f * diffuse;
-}
-
-/// round(clamp(v, 0, 1)·255), halves away from zero.
-inline std::uint8_t colour_byte(float v) {
-  // std::lround without the library call: x − ⌊x⌋ is exact in floating point, so comparing it
-  // with one half rounds exactly as lround does for x ≥ 0.
-  const float x = std::clamp(v, 0.0f, 1.0f) * 255.0f;
-  const int whole = static_cast<int>(x);
-  return static_cast<std::uint8_t>(whole + (x - static_cast<float>(whole) >= 0.5f ? 1 : 0));
-}
+// The model's per-point arithmetic (ramps, the sun's light, bytes of a colour) is inline and
+// branch-free in terrain/src/material_model.hpp, for the loops of colour tiles.
 
 }  // namespace terrain

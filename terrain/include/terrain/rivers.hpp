@@ -41,6 +41,9 @@ inline constexpr double kWaterShareOfDepth = 0.8;
 /// Below the ground by this much, the water surface of a dry cell: the water layer's shoreline
 /// is where the interpolated surface meets the interpolated ground.
 inline constexpr float kDryDepth = 1.0f;
+/// How far (in cells, along rows, columns and diagonals) the water layer's weight reaches beyond
+/// wet cells: every bicubic stencil that touches water reads weights of 1 only.
+inline constexpr int kWaterReachCells = 3;
 
 /// The carved grid and its water, row-major like the input.
 struct RiverNetwork {
@@ -48,6 +51,11 @@ struct RiverNetwork {
   /// The water surface: lakes at their spill level, channels at 0.8 of their depth, the sea at
   /// its level; kDryDepth below `terrain` where there is no water.
   std::vector<float> water;
+  /// The water layer's weight: 1 within kWaterReachCells of a cell whose water stands above its
+  /// ground (lakes, channels and their floors, the sea), 0 further away. Dry land away from water
+  /// thus has no water surface at all, rather than one kDryDepth below it, which pictures and
+  /// colour tiles would take for a shore.
+  std::vector<float> water_weight;
   std::vector<std::uint8_t> channel;  ///< 1 for a channel's centre-line cells
   std::vector<std::uint8_t> lake;     ///< 1 for lake cells
   /// Downstream channel cell of each channel cell, or −1 where the channel ends (the grid's

@@ -2,7 +2,9 @@
 // the evaluation of the compiled program there at the level of detail the tile's spacing asks for.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -155,19 +157,26 @@ class TileGenerator {
 
   /// height_tile, also giving `water_surface`: per sample, the water layer's surface where its
   /// weight is at least 0.5 (the sample is under water where that lies above the ground, as in
-  /// water_mask), else NaN; empty when the scene has no water layer.
+  /// water_mask), else NaN; empty when the scene has no water layer. Where the water tree's
+  /// bounds over a block of samples say its surface lies more than `depth_of_interest` below
+  /// all their ground (or its weight stays under 0.5), the block is not evaluated and gets NaN:
+  /// what only compares the surface with the ground, or a shore band above it, is the same.
   Result<HeightTile> height_tile_with_water(const TileRequest& request,
-                                            std::vector<float>& water_surface);
+                                            std::vector<float>& water_surface,
+                                            float depth_of_interest = INFINITY);
 
  private:
   // height_tile, also giving which samples the frame maps (0 where it does not reach).
   Result<HeightTile> height_tile(const TileRequest& request, std::vector<std::uint8_t>& mapped);
   // Scene positions of every sample; `mapped` is 0 where the frame does not reach.
   void place_samples(HeightTile& tile, std::vector<std::uint8_t>& mapped) const;
+  // Evaluates a tree at the mapped samples, 8×8 blocks at a time. With `skip`, blocks it
+  // returns true for are left as they are.
+  using BlockFilter = std::function<bool(const PointBlock& block, const int* index)>;
   void evaluate(Evaluator& evaluator, const HeightTile& tile,
                 const std::vector<std::uint8_t>& mapped, float spacing,
                 std::vector<float>& elevation, std::vector<float>* gx, std::vector<float>* gy,
-                std::vector<float>* weight);
+                std::vector<float>* weight, const BlockFilter& skip = nullptr);
 
   bool evaluate_on_backend(const HeightTile& tile, const std::vector<std::uint8_t>& mapped,
                            std::vector<float>& elevation, std::vector<float>& gx,

@@ -202,7 +202,8 @@ BakeCache::Grid bake_grid(const ParseContext& context, std::string_view kind,
 }
 
 Result<std::vector<float>> pack_baked_grid(std::vector<float> samples, int side,
-                                           const GridSquare& square, bool local_bounds) {
+                                           const GridSquare& square, bool local_bounds,
+                                           std::vector<float> weights) {
   const Vec2 lo = square.south_west();
   const auto hi_x = static_cast<float>(square.center.x + 0.5 * square.size);
   const auto hi_y = static_cast<float>(square.center.y + 0.5 * square.size);
@@ -215,6 +216,7 @@ Result<std::vector<float>> pack_baked_grid(std::vector<float> samples, int side,
   Raster raster;
   raster.width = raster.height = side;
   raster.samples = std::move(samples);
+  raster.weights = std::move(weights);
   Result<Heightfield> field = Heightfield::create(raster, hp);
   if (!field) return field.error();
   std::vector<float> pool = pack_image_on_quad(*field, *quad);

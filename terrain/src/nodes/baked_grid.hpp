@@ -51,10 +51,12 @@ BakeCache::Grid bake_grid(const ParseContext& context, std::string_view kind,
                           const std::function<BakeCache::Grid()>& make);
 
 /// An image primitive's pool for a raster of side² samples (row 0 north) on the square: bicubic,
-/// affinely mapped, and — with `local_bounds` — the table that baked_grid_bounds reads. Fails
-/// only on rasters Heightfield refuses.
+/// affinely mapped, and — with `local_bounds` — the table that baked_grid_bounds reads; with
+/// `weights` (side² values, row 0 north), the primitive's weight inside the square follows them.
+/// Fails only on rasters Heightfield refuses.
 Result<std::vector<float>> pack_baked_grid(std::vector<float> samples, int side,
-                                           const GridSquare& square, bool local_bounds);
+                                           const GridSquare& square, bool local_bounds,
+                                           std::vector<float> weights = {});
 
 /// Bounds over the query box from the local bounds of the tiles it may touch.
 NodeBounds baked_grid_bounds(const float* params, const BoundsQuery& query);

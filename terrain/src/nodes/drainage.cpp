@@ -75,7 +75,8 @@ Result<NodeParams> parse_drainage(FieldReader& reader, ParseContext& context) {
     Result<std::vector<float>> ground =
         pack_baked_grid(std::vector<float>(4, base), 2, *square, true);
     Result<std::vector<float>> water =
-        pack_baked_grid(std::vector<float>(4, base - kDryDepth), 2, *square, false);
+        pack_baked_grid(std::vector<float>(4, base - kDryDepth), 2, *square, false,
+                        std::vector<float>(4, 0.0f));  // no water until the rivers are made
     if (!ground || !water) {
       return Error{"the square cannot be mapped", pointer_join(reader.pointer(), "size")};
     }
@@ -90,12 +91,12 @@ Result<NodeParams> parse_drainage(FieldReader& reader, ParseContext& context) {
       if (!rivers) return nullptr;
       Result<std::vector<float>> ground =
           pack_baked_grid(std::move(rivers->terrain), resolution, *square, true);
-      Result<std::vector<float>> water =
-          pack_baked_grid(std::move(rivers->water), resolution, *square, false);
+      Result<std::vector<float>> water = pack_baked_grid(
+          std::move(rivers->water), resolution, *square, false, std::move(rivers->water_weight));
       if (!ground || !water) return nullptr;
       return join(std::move(*ground), *water);
     };
-    grid = bake_grid(context, "drainage/1", out.canonical, bake);
+    grid = bake_grid(context, "drainage/2", out.canonical, bake);
   }
   if (!grid) {
     return Error{"the drainage grids could not be made", reader.pointer(), ErrorKind::internal};
