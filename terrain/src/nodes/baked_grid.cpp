@@ -31,17 +31,20 @@ void append_content(const Node& node, std::string& out) {
 // The pool is an image primitive's (nodes/image.cpp: 0 λ_f, 1 λ_α, 2 h_lo, 3 h_hi, 4..7 box,
 // 8 mapping, 9 heightfield, 10 mapping mode: 2, the box itself), whose curve-only slot 12 holds the
 // offset of a table of local bounds: tile side in cells, tiles per side, cells per side, then per
-// tile of kTile × kTile cells its slope bound in metres per metre and its height range.
+// tile of kTile × kTile cells its slope bound in metres per metre, its height range and the
+// largest weight of its samples (1 for a grid without weights).
 constexpr int kBox = 4, kMode = 10, kTable = 12;
 constexpr float kOnItsBox = 2.0f;  // the image's mapping mode 2: its support box
 constexpr int kTile = 8;
-constexpr std::size_t kTileFloats = 3;
+constexpr std::size_t kTileFloats = 4;
 
 /// Local bounds of a bicubic grid of n × n samples (raster rows, north first) over a square of
 /// side `side` metres: per tile, 2.5 × the largest neighbour difference per axis over its cells'
 /// stencils (a cell's cubic reads one sample more on each side), and the overshoot-widened range
-/// of those samples (heightfield.hpp).
-void pack_local_bounds(const std::vector<float>& h, int n, double side, std::vector<float>& pool) {
+/// of those samples (heightfield.hpp), and the largest of their weights: the weight interpolates
+/// bilinearly between samples, so a tile whose samples all weigh 0 weighs exactly 0.
+void pack_local_bounds(const std::vector<float>& h, const std::vector<float>& weights, int n,
+                       double side, std::vector<float>& pool) {
   const int cells = n - 1;
   const int tiles = (cells + kTile - 1) / kTile;
   const double cell = side / cells;
@@ -58,9 +61,15 @@ void pack_local_bounds(const std::vector<float>& h, int n, double side, std::vec
       const int i0 = std::max(ti * kTile - 1, 0), i1 = std::min((ti + 1) * kTile + 1, cells);
       const int j0 = std::max(tj * kTile - 1, 0), j1 = std::min((tj + 1) * kTile + 1, cells);
       double du = 0.0, dv = 0.0, lo = at(i0, j0), hi = lo;
+      float heaviest = weights.empty() ? 1.0f : 0.0f;
       for (int j = j0; j <= j1; ++j) {
         for (int i = i0; i <= i1; ++i) {
           const double z = at(i, j);
+          if (!weights.empty()) {
+            heaviest = std::max(heaviest,
+                                weights[static_cast<std::size_t>(j) * static_cast<std::size_t>(n) +
+                                        static_cast<std::size_t>(i)]);
+          }
           lo = std::min(lo, z);
           hi = std::max(hi, z);
           if (i < i1) du = std::max(du, std::abs(at(i + 1, j) - z));
@@ -75,6 +84,7 @@ void pack_local_bounds(const std::vector<float>& h, int n, double side, std::vec
                      (1.0f + 1e-6f));
       pool.push_back(static_cast<float>(middle - half - pad));
       pool.push_back(static_cast<float>(middle + half + pad));
+      pool.push_back(heaviest);
     }
   }
 }
@@ -222,7 +232,7 @@ Result<std::vector<float>> pack_baked_grid(std::vector<float> samples, int side,
   std::vector<float> pool = pack_image_on_quad(*field, *quad);
   pool[kMode] = kOnItsBox;  // the square is axis-aligned: u, v are affine in x, y
   if (local_bounds) {
-    pack_local_bounds(raster.samples, side, static_cast<double>(hi_x) - lo.x, pool);
+    pack_local_bounds(raster.samples, raster.weights, side, static_cast<double>(hi_x) - lo.x, pool);
   }
   return pool;
 }
@@ -248,18 +258,20 @@ NodeBounds baked_grid_bounds(const float* params, const BoundsQuery& query) {
     return std::clamp(static_cast<int>(std::max(c, 0.0)) / tile, 0, tiles - 1);
   };
   const int t0 = tile_of(c0), t1 = tile_of(c1), s0 = tile_of(r0), s1 = tile_of(r1);
-  float slope = 0.0f;
+  float slope = 0.0f, heaviest = 0.0f;
   Interval range{INFINITY, -INFINITY};
   for (int tj = s0; tj <= s1; ++tj) {
     for (int ti = t0; ti <= t1; ++ti) {
       const float* e = entries + kTileFloats * static_cast<std::size_t>(tj * tiles + ti);
       slope = std::max(slope, e[0]);
       range = {std::min(range.lo, e[1]), std::max(range.hi, e[2])};
+      heaviest = std::max(heaviest, e[3]);
     }
   }
   NodeBounds b = image_node_type().kernels.leaf_bounds(params, query);
   b.elevation = range;
   b.elevation_lipschitz = std::min(b.elevation_lipschitz, slope);
+  if (!(heaviest > 0.0f)) b.weight = {0.0f, 0.0f};  // no sample near the box weighs anything
   return b;
 }
 

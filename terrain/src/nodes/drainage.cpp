@@ -75,7 +75,7 @@ Result<NodeParams> parse_drainage(FieldReader& reader, ParseContext& context) {
     Result<std::vector<float>> ground =
         pack_baked_grid(std::vector<float>(4, base), 2, *square, true);
     Result<std::vector<float>> water =
-        pack_baked_grid(std::vector<float>(4, base - kDryDepth), 2, *square, false,
+        pack_baked_grid(std::vector<float>(4, base - kDryDepth), 2, *square, true,
                         std::vector<float>(4, 0.0f));  // no water until the rivers are made
     if (!ground || !water) {
       return Error{"the square cannot be mapped", pointer_join(reader.pointer(), "size")};
@@ -92,7 +92,7 @@ Result<NodeParams> parse_drainage(FieldReader& reader, ParseContext& context) {
       Result<std::vector<float>> ground =
           pack_baked_grid(std::move(rivers->terrain), resolution, *square, true);
       Result<std::vector<float>> water = pack_baked_grid(
-          std::move(rivers->water), resolution, *square, false, std::move(rivers->water_weight));
+          std::move(rivers->water), resolution, *square, true, std::move(rivers->water_weight));
       if (!ground || !water) return nullptr;
       return join(std::move(*ground), *water);
     };
@@ -104,7 +104,9 @@ Result<NodeParams> parse_drainage(FieldReader& reader, ParseContext& context) {
   const auto ground_floats = static_cast<std::ptrdiff_t>((*grid)[0]);
   out.pool.assign(grid->begin() + 1, grid->begin() + 1 + ground_floats);
   auto water = std::make_shared<Node>();
-  water->type = &image_node_type();
+  // A grid with local bounds, its weights' included, like the drainage's own: the water's
+  // evaluators skip what lies far from water (TileGenerator::height_tile_with_water).
+  water->type = &drainage_node_type();
   water->params.pool.assign(grid->begin() + 1 + ground_floats, grid->end());
   context.water_layers.push_back(std::move(water));
   return out;
