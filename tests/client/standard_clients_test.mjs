@@ -119,7 +119,9 @@ function reportRequests(seen, name) {
     (seen.refused.length ? ` (${seen.refused.slice(0, 3).join(', ')})` : ''));
 }
 
-async function checkPicture(page, name) {
+/// `lit`: the picture must also be in daylight (mean luminance above 28 of 255; a close view of
+/// the planet at night under the page's lighting averaged 17).
+async function checkPicture(page, name, { lit = false } = {}) {
   const png = await page.screenshot();
   // TERRAIN_SCREENSHOT_DIR=folder keeps the pictures (docs/client.md shows them).
   if (process.env.TERRAIN_SCREENSHOT_DIR) {
@@ -140,6 +142,10 @@ async function checkPicture(page, name) {
   console.log(`     ${name}: picture luminance deviation ${deviation.toFixed(1)}, ` +
               `${colours.size} colours`);
   check(deviation > 8 && colours.size > 64, `${name}: the picture is not blank`);
+  if (lit) {
+    console.log(`     ${name}: mean luminance ${(sum / n).toFixed(1)}`);
+    check(sum / n > 28, `${name}: the ground is in daylight`);
+  }
 }
 
 function checkNoErrors(page, seen, report, name) {
@@ -345,7 +351,8 @@ async function cesiumPlanet() {
   await waitFor(page, () => window.terrainExample.viewer.scene.globe.tilesLoaded &&
     Math.max(...window.terrainExample.viewer.scene.globe._surface._tilesToRender.map((t) => t.level)) >= 10,
     240000, `${name}: close view loaded`);
-  await checkPicture(page, `${name} (close)`);
+  // The page's sun follows the camera: the view is in the morning, not 175° from it in the night.
+  await checkPicture(page, `${name} (close)`, { lit: true });
   const tile = await deepestVertices(`${api}/api/v1/planets/default/mesh`, layer.maxzoom,
                                      land.lon, land.lat, 16);
   const seenByCesium = await cesiumHeights(page, tile.vertices);
