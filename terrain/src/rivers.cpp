@@ -16,7 +16,8 @@ constexpr double kFloorSlope = 0.01;
 
 struct Lakes {
   std::vector<std::uint8_t> lake;  ///< 1 for cells of a kept lake
-  std::vector<double> level;       ///< the spill level of each cell's lake
+  /// The spill level of each lake cell's lake, as the water layer stores it (float32).
+  std::vector<float> level;
   int count = 0;
 };
 
@@ -27,7 +28,7 @@ Lakes find_lakes(const Drainage& d, std::span<const float> elevation, double min
   const int w = d.width, h = d.height;
   Lakes out;
   out.lake.assign(n, 0);
-  out.level.assign(n, 0.0);
+  out.level.assign(n, 0.0f);
   const auto raised = [&](std::size_t c) {
     return d.land[c] != 0 && d.filled[c] > static_cast<double>(elevation[c]);
   };
@@ -60,10 +61,16 @@ Lakes find_lakes(const Drainage& d, std::span<const float> elevation, double min
     ++out.count;
     for (const std::int32_t c : component) {
       out.lake[static_cast<std::size_t>(c)] = 1;
-      out.level[static_cast<std::size_t>(c)] = level;
+      out.level[static_cast<std::size_t>(c)] = static_cast<float>(level);
     }
   }
   return out;
+}
+
+/// Frees a vector's storage (`v = {}` keeps it: that assigns an empty initializer list).
+template <typename T>
+void release(std::vector<T>& v) {
+  std::vector<T>().swap(v);
 }
 
 /// 1 within kWaterReachCells (Chebyshev distance) of a cell whose water stands above its ground,
@@ -133,7 +140,7 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
   if (p.sea_level) grid.sea_level = static_cast<float>(*p.sea_level);
   Result<Drainage> routed = route_drainage(grid);
   if (!routed) return routed.error();
-  const Drainage& d = *routed;
+  const Drainage& d = *routed;  // until the second routing
   const std::size_t n = d.cells();
   const int w = grid.width, h = grid.height;
   const double cell = grid.cell_size;
@@ -152,22 +159,33 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
   Lakes lakes = find_lakes(d, grid.elevation, p.lake_depth);
   out.lakes = lakes.count;
   // The surface rivers run on: shallow depressions filled, lake floors and the sea as they were.
-  std::vector<double> ground(n);
-  for (std::size_t c = 0; c < n; ++c) {
+  const auto ground = [&](std::size_t c) {
     const bool filled = d.land[c] != 0 && lakes.lake[c] == 0;
-    ground[c] = filled ? d.filled[c] : static_cast<double>(grid.elevation[c]);
-  }
+    return filled ? d.filled[c] : static_cast<double>(grid.elevation[c]);
+  };
 
   // Channels: land outside lakes draining at least the threshold area, sized by their area.
+  // What only channel cells have (bed, water, width, depth) is kept per channel, in cell order
+  // (`slot` maps a cell to its channel's index): channels are a few percent of the cells, and
+  // a 2048² grid cannot afford six arrays of doubles over all of them.
   out.channel.assign(n, 0);
   out.downstream.assign(n, -1);
-  std::vector<double> bed(n, 0.0), water(n, 0.0), half_width(n, 0.0), depth(n, 0.0);
+  std::vector<std::int32_t> slot(n, -1);
+  std::vector<std::int32_t> cell_of;
   for (std::size_t c = 0; c < n; ++c) {
     if (d.land[c] == 0 || lakes.lake[c] != 0 || d.area[c] < p.channel_area) continue;
     out.channel[c] = 1;
-    const double q = d.area[c] / p.channel_area;
-    half_width[c] = 0.5 * p.width * std::sqrt(q);
-    depth[c] = p.depth * portable_pow(q, 0.4);
+    slot[c] = static_cast<std::int32_t>(cell_of.size());
+    cell_of.push_back(static_cast<std::int32_t>(c));
+  }
+  const std::size_t k_channels = cell_of.size();
+  const auto at = [&](std::size_t c) { return static_cast<std::size_t>(slot[c]); };
+  std::vector<double> bed(k_channels, 0.0), water(k_channels, 0.0), half_width(k_channels, 0.0),
+      depth(k_channels, 0.0);
+  for (std::size_t k = 0; k < k_channels; ++k) {
+    const double q = d.area[static_cast<std::size_t>(cell_of[k])] / p.channel_area;
+    half_width[k] = 0.5 * p.width * std::sqrt(q);
+    depth[k] = p.depth * portable_pow(q, 0.4);
   }
   for (std::size_t c = 0; c < n; ++c) {
     const std::int32_t r = d.receiver[c];
@@ -179,37 +197,39 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
   // confluence's jump in depth is spread over the reach below it, so the bed's slope stays
   // between 1 and 1.5 times the ground's and the channel keeps the valley's Flint's law.
   {
-    std::vector<double> reachable(n, 0.0);
-    std::vector<std::uint8_t> fed(n, 0);
+    std::vector<double> reachable(k_channels, 0.0);
+    std::vector<std::uint8_t> fed(k_channels, 0);
     for (std::size_t k = n; k-- > 0;) {
       const auto c = static_cast<std::size_t>(d.order[k]);
       if (out.channel[c] == 0) continue;
-      if (fed[c] != 0) depth[c] = std::min(depth[c], reachable[c]);
+      const std::size_t sc = at(c);
+      if (fed[sc] != 0) depth[sc] = std::min(depth[sc], reachable[sc]);
       const std::int32_t r = out.downstream[c];
       if (r < 0) continue;
       const auto rc = static_cast<std::size_t>(r);
-      const double fall = std::max(ground[c] - ground[rc], 0.0);
-      reachable[rc] = std::max(reachable[rc], depth[c] + 0.5 * fall);
-      fed[rc] = 1;
+      const double fall = std::max(ground(c) - ground(rc), 0.0);
+      reachable[at(rc)] = std::max(reachable[at(rc)], depth[sc] + 0.5 * fall);
+      fed[at(rc)] = 1;
     }
   }
-  for (std::size_t c = 0; c < n; ++c) {
-    if (out.channel[c] == 0) continue;
-    bed[c] = ground[c] - depth[c];
-    water[c] = bed[c] + kWaterShareOfDepth * depth[c];
+  for (std::size_t k = 0; k < k_channels; ++k) {
+    bed[k] = ground(static_cast<std::size_t>(cell_of[k])) - depth[k];
+    water[k] = bed[k] + kWaterShareOfDepth * depth[k];
   }
   // Each channel cell's value at least δ below the one upstream: lowered downstream (upstream
-  // first, so a cell has all its donors' before it passes its own on), never raised.
-  const auto descend = [&](std::vector<double>& v) {
+  // first, so a cell has all its donors' before it passes its own on), never raised. `index`
+  // maps a cell to where `v` keeps it.
+  const auto descend = [&](std::vector<double>& v, const auto& index) {
     for (std::size_t k = n; k-- > 0;) {
       const auto c = static_cast<std::size_t>(d.order[k]);
       if (const std::int32_t r = out.downstream[c]; r >= 0) {
-        v[static_cast<std::size_t>(r)] = std::min(v[static_cast<std::size_t>(r)], v[c] - delta);
+        double& below = v[index(static_cast<std::size_t>(r))];
+        below = std::min(below, v[index(c)] - delta);
       }
     }
   };
-  descend(bed);
-  descend(water);
+  descend(bed, at);
+  descend(water, at);
 
   // The carve: each channel cell's cross-section — a floor of its width sloping gently to the
   // centre line, banks beyond — cut into the ground around it. A cell takes the section it lies
@@ -217,64 +237,72 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
   // channel cell its own bed: taking the lowest section would let a wide river's floor run at
   // the floor's slope instead of its own.
   std::vector<double> carved(n, std::numeric_limits<double>::infinity());
-  std::vector<double> beyond_floor(n, std::numeric_limits<double>::infinity());
   std::vector<std::int32_t> owner(n, -1);
-  for (std::size_t c = 0; c < n; ++c) {
-    if (out.channel[c] == 0) continue;
-    const double reach = half_width[c] + depth[c] / p.bank_slope;
-    // Clamped before the cast: a huge width over tiny cells is no integer.
-    const int radius = static_cast<int>(
-        std::min(static_cast<double>(kMaxCarveRadius), std::ceil(reach / cell - 1e-9)));
-    const int ci = static_cast<int>(c % static_cast<std::size_t>(w));
-    const int cj = static_cast<int>(c / static_cast<std::size_t>(w));
-    for (int nj = std::max(cj - radius, 0); nj <= std::min(cj + radius, h - 1); ++nj) {
-      for (int ni = std::max(ci - radius, 0); ni <= std::min(ci + radius, w - 1); ++ni) {
-        const std::size_t x = static_cast<std::size_t>(nj) * static_cast<std::size_t>(w) +
-                              static_cast<std::size_t>(ni);
-        if (d.land[x] == 0 || lakes.lake[x] != 0 || out.channel[x] != 0) continue;
-        const double di = ni - ci, dj = nj - cj;
-        const double distance = cell * std::sqrt(di * di + dj * dj);
-        const double outside = distance - half_width[c];
-        const double section =
-            bed[c] + kFloorSlope * distance + p.bank_slope * std::max(outside, 0.0);
-        if (outside < beyond_floor[x] || (outside == beyond_floor[x] && section < carved[x])) {
-          beyond_floor[x] = outside;
-          carved[x] = section;
-          owner[x] = static_cast<std::int32_t>(c);
+  {
+    std::vector<double> beyond_floor(n, std::numeric_limits<double>::infinity());
+    for (std::size_t k = 0; k < k_channels; ++k) {
+      const auto c = static_cast<std::size_t>(cell_of[k]);
+      const double reach = half_width[k] + depth[k] / p.bank_slope;
+      // Clamped before the cast: a huge width over tiny cells is no integer.
+      const int radius = static_cast<int>(
+          std::min(static_cast<double>(kMaxCarveRadius), std::ceil(reach / cell - 1e-9)));
+      const int ci = static_cast<int>(c % static_cast<std::size_t>(w));
+      const int cj = static_cast<int>(c / static_cast<std::size_t>(w));
+      for (int nj = std::max(cj - radius, 0); nj <= std::min(cj + radius, h - 1); ++nj) {
+        for (int ni = std::max(ci - radius, 0); ni <= std::min(ci + radius, w - 1); ++ni) {
+          const std::size_t x = static_cast<std::size_t>(nj) * static_cast<std::size_t>(w) +
+                                static_cast<std::size_t>(ni);
+          if (d.land[x] == 0 || lakes.lake[x] != 0 || out.channel[x] != 0) continue;
+          const double di = ni - ci, dj = nj - cj;
+          const double distance = cell * std::sqrt(di * di + dj * dj);
+          const double outside = distance - half_width[k];
+          const double section =
+              bed[k] + kFloorSlope * distance + p.bank_slope * std::max(outside, 0.0);
+          if (outside < beyond_floor[x] || (outside == beyond_floor[x] && section < carved[x])) {
+            beyond_floor[x] = outside;
+            carved[x] = section;
+            owner[x] = static_cast<std::int32_t>(c);
+          }
         }
       }
     }
   }
-  for (std::size_t c = 0; c < n; ++c) {
-    if (out.channel[c] != 0) {
-      carved[c] = bed[c];
-      owner[c] = static_cast<std::int32_t>(c);
-    }
+  for (std::size_t k = 0; k < k_channels; ++k) {
+    const auto c = static_cast<std::size_t>(cell_of[k]);
+    carved[c] = bed[k];
+    owner[c] = static_cast<std::int32_t>(c);
   }
-  std::vector<double> carved_ground(n);
-  for (std::size_t c = 0; c < n; ++c) carved_ground[c] = std::min(ground[c], carved[c]);
+  // The carved ground, in place: the lower of the ground and the section cut into it.
+  for (std::size_t c = 0; c < n; ++c) carved[c] = std::min(ground(c), carved[c]);
   // Beds stay below the ones upstream whatever sections cut beside them.
-  descend(carved_ground);
+  descend(carved, [](std::size_t c) { return c; });
+  out.strahler = strahler_orders(out.downstream, d.order, out.channel);
 
   // In float32: every land cell outside lakes and the sea drains. Routed again with the lakes as
   // water, a cell not above its receiver (rounding, a pocket the sections left) is raised four
-  // ulps above it, receivers first.
+  // ulps above it, receivers first. The first routing's arrays go first (but which cells are
+  // land): the second routing needs as much room.
   out.terrain.resize(n);
-  for (std::size_t c = 0; c < n; ++c) out.terrain[c] = static_cast<float>(carved_ground[c]);
-  ElevationGrid final_grid = grid;
-  final_grid.elevation = out.terrain;
-  final_grid.water = lakes.lake;
-  Result<Drainage> final_routing = route_drainage(final_grid);
-  if (!final_routing) return final_routing.error();
-  for (const std::int32_t cell_index : final_routing->order) {
-    const auto c = static_cast<std::size_t>(cell_index);
-    const std::int32_t r = final_routing->receiver[c];
-    if (r < 0) continue;
-    // Four ulps above: an evaluator's rounding of the bicubic at the sample may not undo it.
-    float above = out.terrain[static_cast<std::size_t>(r)];
-    for (int ulp = 0; ulp < 4; ++ulp) above = std::nextafter(above, INFINITY);
-    if (out.terrain[c] < above && !(out.terrain[c] > out.terrain[static_cast<std::size_t>(r)])) {
-      out.terrain[c] = above;
+  for (std::size_t c = 0; c < n; ++c) out.terrain[c] = static_cast<float>(carved[c]);
+  std::vector<std::uint8_t> land = std::move(routed->land);
+  routed = Drainage{};
+  std::vector<double>().swap(carved);
+  {
+    ElevationGrid final_grid = grid;
+    final_grid.elevation = out.terrain;
+    final_grid.water = lakes.lake;
+    Result<Drainage> final_routing = route_drainage(final_grid);
+    if (!final_routing) return final_routing.error();
+    for (const std::int32_t cell_index : final_routing->order) {
+      const auto c = static_cast<std::size_t>(cell_index);
+      const std::int32_t r = final_routing->receiver[c];
+      if (r < 0) continue;
+      // Four ulps above: an evaluator's rounding of the bicubic at the sample may not undo it.
+      float above = out.terrain[static_cast<std::size_t>(r)];
+      for (int ulp = 0; ulp < 4; ++ulp) above = std::nextafter(above, INFINITY);
+      if (out.terrain[c] < above && !(out.terrain[c] > out.terrain[static_cast<std::size_t>(r)])) {
+        out.terrain[c] = above;
+      }
     }
   }
 
@@ -285,21 +313,23 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
     const float ground_here = out.terrain[c];
     float surface = ground_here - kDryDepth;
     if (lakes.lake[c] != 0) {
-      surface = static_cast<float>(lakes.level[c]);
+      surface = lakes.level[c];
     } else if (out.channel[c] != 0) {
       // A channel's own water, above its bed (and whatever section cut lower beside it).
-      surface = std::max(static_cast<float>(water[c]), ground_here);
-    } else if (p.sea_level && d.land[c] == 0 && std::isfinite(grid.elevation[c])) {
+      surface = std::max(static_cast<float>(water[at(c)]), ground_here);
+    } else if (p.sea_level && land[c] == 0 && std::isfinite(grid.elevation[c])) {
       surface = static_cast<float>(*p.sea_level);
     } else if (const std::int32_t o = owner[c]; o >= 0) {
-      const auto level = static_cast<float>(water[static_cast<std::size_t>(o)]);
+      const auto level = static_cast<float>(water[at(static_cast<std::size_t>(o))]);
       if (level > ground_here) surface = level;
     }
     out.water[c] = surface;
   }
+  release(owner);
+  release(slot);
+  release(lakes.level);
   out.water_weight = water_weight(out.water, out.terrain, w, h);
   out.lake = std::move(lakes.lake);
-  out.strahler = strahler_orders(out.downstream, d.order, out.channel);
   return out;
 }
 
