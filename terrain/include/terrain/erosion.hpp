@@ -61,6 +61,13 @@ Status validate_erosion(const ElevationGrid& grid, const ErosionParams& params);
 /// float32, so the result has no pits. `grid.water` is ignored.
 Result<std::vector<float>> erode(const ElevationGrid& grid, const ErosionParams& params);
 
+/// The same for a grid the caller hands over (`heights`: width × height, row-major): the solve
+/// works in its storage, so a 2048² solve holds fifteen bytes a cell in all, its input and
+/// output included, where the copying form holds four more. Errors name /width, /height,
+/// /cell_size, /elevation as above.
+Result<std::vector<float>> erode(std::vector<float>&& heights, int width, int height,
+                                 double cell_size, const ErosionParams& params);
+
 /// x^y for x > 0 from + − × ÷ only (a log and an exp series in double), about 1e-15 relative:
 /// libm's pow may differ between its CPU-specific variants by an ulp.
 double portable_pow(double x, double y);

@@ -32,7 +32,8 @@ namespace terrain {
 /// as deep (and their channels as wide) as their drainage area makes them (depth ∝ A^0.4).
 /// 9: planets drain at every level (drain edges, valley floors along rivers and coasts), bisect
 /// into well-shaped triangles, and leave the fractal's octaves longer than finest_edge to the mesh.
-/// 10: erosion keeps its heights in float (thirteen bytes per cell: 2048² in 54 MB); the drainage's
+/// 10: erosion keeps its heights in float and its uplift in 16 bits (fifteen bytes per cell, input
+/// included: 2048² in 61.5 MiB); the drainage's
 /// water layer weighs nothing on dry land away from water (no shores painted there).
 inline constexpr int kProductGeneration = 10;
 

@@ -60,8 +60,9 @@ Result<NodeParams> parse_erosion(FieldReader& reader, ParseContext& context) {
       }
     };
     flip_rows(samples);
+    // Handed over: the solve works in the samples' storage (fifteen bytes a cell in all).
     Result<std::vector<float>> eroded =
-        erode({resolution, resolution, square->step(), samples, std::nullopt, {}}, p);
+        erode(std::move(samples), resolution, resolution, square->step(), p);
     if (!eroded) return nullptr;
     samples = std::move(*eroded);
     flip_rows(samples);
