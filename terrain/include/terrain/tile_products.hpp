@@ -33,8 +33,8 @@ namespace terrain {
 /// 9: planets drain at every level (drain edges, valley floors along rivers and coasts), bisect
 /// into well-shaped triangles, and leave the fractal's octaves longer than finest_edge to the mesh.
 /// 10: erosion keeps its heights in float and its uplift in 16 bits (fifteen bytes per cell, input
-/// included: 2048² in 61.5 MiB); the drainage's
-/// water layer weighs nothing on dry land away from water (no shores painted there).
+/// included: 2048² in 61.5 MiB); the drainage's water layer weighs nothing on dry land away from
+/// water (no shores painted there).
 inline constexpr int kProductGeneration = 10;
 
 enum class TileFormat {
