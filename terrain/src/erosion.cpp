@@ -10,6 +10,8 @@
 #include <queue>
 #include <string>
 
+#include "free_storage.hpp"
+
 namespace terrain {
 namespace {
 
@@ -69,12 +71,6 @@ double portable_tan(double angle) {
     term_c *= -a2 / ((2 * k + 1) * (2 * k + 2));
   }
   return sine / cosine;
-}
-
-/// Frees a vector's storage (`v = {}` would keep it: that assigns an empty initializer list).
-template <typename T>
-void release(std::vector<T>& v) {
-  std::vector<T>().swap(v);
 }
 
 /// The bilinear sample at (x, y) of a grid (cell units, within it).
@@ -389,7 +385,7 @@ class Solver {
   }
 
   /// Frees the drainage areas (the last stage does not need them, and needs the room).
-  void release_areas() { release(area_); }
+  void release_areas() { free_storage(area_); }
 
   /// Cells with donors after their receivers' donors: upstream first (route_filled first).
   std::span<const std::int32_t> order() const { return order_; }
@@ -621,8 +617,8 @@ Result<std::vector<float>> erode(std::vector<float>&& heights, int width, int he
           start[c] = static_cast<float>(coarse_result(i, j) + (start[c] - coarse_input(i, j)));
         }
       }
-      release(z);
-      release(coarser_authored);
+      free_storage(z);
+      free_storage(coarser_authored);
     }
     solver->z = std::move(start);
     solver->prepare_powers(p.concavity);

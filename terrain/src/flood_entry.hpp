@@ -1,5 +1,6 @@
-// The entry of a priority-flood's queue (drainage.cpp, erosion.cpp): lowest value first, then
-// the earliest pushed. The sequence number is unique, so the order is total and no result depends
+// The entry of a priority-flood's queue (drainage.cpp; the erosion's flood keeps eight-byte
+// float entries of its own, erosion.cpp's FloodCell): lowest value first, then the earliest
+// pushed. The sequence number is unique, so the order is total and no result depends
 // on the heap's implementation.
 #pragma once
 

@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include "free_storage.hpp"
 #include "terrain/erosion.hpp"
 
 namespace terrain {
@@ -65,12 +66,6 @@ Lakes find_lakes(const Drainage& d, std::span<const float> elevation, double min
     }
   }
   return out;
-}
-
-/// Frees a vector's storage (`v = {}` keeps it: that assigns an empty initializer list).
-template <typename T>
-void release(std::vector<T>& v) {
-  std::vector<T>().swap(v);
 }
 
 /// 1 within kWaterReachCells (Chebyshev distance) of a cell whose water stands above its ground,
@@ -286,7 +281,7 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
   for (std::size_t c = 0; c < n; ++c) out.terrain[c] = static_cast<float>(carved[c]);
   std::vector<std::uint8_t> land = std::move(routed->land);
   routed = Drainage{};
-  std::vector<double>().swap(carved);
+  free_storage(carved);
   {
     ElevationGrid final_grid = grid;
     final_grid.elevation = out.terrain;
@@ -325,9 +320,9 @@ Result<RiverNetwork> carve_rivers(const ElevationGrid& input, const RiverParams&
     }
     out.water[c] = surface;
   }
-  release(owner);
-  release(slot);
-  release(lakes.level);
+  free_storage(owner);
+  free_storage(slot);
+  free_storage(lakes.level);
   out.water_weight = water_weight(out.water, out.terrain, w, h);
   out.lake = std::move(lakes.lake);
   return out;
