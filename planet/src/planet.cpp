@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "gradient_noise.hpp"
+#include "planet/smooth_surface.hpp"
 
 namespace planet {
 
@@ -19,10 +20,13 @@ namespace {
 // neighbours (pits at every zoom: docs/analysis.md); a floor about a sample wide drains them
 // into it. The blend uses only the wet and dry barycentric weights, and along a shared edge both
 // triangles see the same two corners with the same weights, so the surface stays continuous.
+// Where two corners are dry their level is the smooth surface's cubic along their edge
+// (smooth_surface.hpp), which the all-dry triangle across that edge shares.
 constexpr double kFloorWidth = 0.5;
 constexpr double kFloorRise = 0.001;
 
-double floored_ground(const std::array<const Vertex*, 3>& corner, const std::array<double, 3>& w) {
+double floored_ground(const std::array<const Vertex*, 3>& corner, const std::array<double, 3>& w,
+                      double radius) {
   double wet_weight = 0.0, wet_sum = 0.0, dry_weight = 0.0, dry_sum = 0.0;
   for (std::size_t k = 0; k < 3; ++k) {
     if (wet(*corner[k])) {
@@ -34,13 +38,22 @@ double floored_ground(const std::array<const Vertex*, 3>& corner, const std::arr
     }
   }
   if (!(wet_weight > 0.0) || !(dry_weight > 0.0)) return wet_sum + dry_sum;
+  double dry_level = dry_sum / dry_weight;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const Vertex& u = *corner[(k + 1) % 3];
+    const Vertex& v = *corner[(k + 2) % 3];
+    if (wet(*corner[k]) && !wet(u) && !wet(v)) {
+      const double along = w[(k + 2) % 3] + w[(k + 1) % 3];
+      dry_level = edge_cubic(u, v, along > 0.0 ? w[(k + 2) % 3] / along : 0.5, radius);
+    }
+  }
   const double share = std::min(dry_weight, 1.0);
   const double rise = share <= kFloorWidth ? kFloorRise * share
                                            : kFloorRise * kFloorWidth +
                                                  (1.0 - kFloorRise * kFloorWidth) *
                                                      (share - kFloorWidth) / (1.0 - kFloorWidth);
   const double wet_level = wet_sum / wet_weight;
-  return wet_level + rise * (dry_sum / dry_weight - wet_level);
+  return wet_level + rise * (dry_level - wet_level);
 }
 
 }  // namespace
@@ -256,8 +269,14 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
                                          hierarchy_.vertices[tri.v[(k + 1) % 3]].drainage_area);
     }
   }
-  out.ground = tri.face == FaceType::land ? floored_ground({&x, &y, &z}, w)
-                                          : w[0] * x.ground + w[1] * y.ground + w[2] * z.ground;
+  const double radius = planet_->definition().radius;
+  if (tri.face == FaceType::sea) {
+    out.ground = w[0] * x.ground + w[1] * y.ground + w[2] * z.ground;
+  } else if (all_dry({&x, &y, &z})) {
+    out.ground = clough_tocher({&x, &y, &z}, w, radius);
+  } else {
+    out.ground = floored_ground({&x, &y, &z}, w, radius);
+  }
   // River corners count as river features too: a channel around a vertex reaches into the
   // triangles that touch the river only there.
   double channel = 0.0;

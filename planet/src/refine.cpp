@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "planet/mesh.hpp"
+#include "planet/smooth_surface.hpp"
 
 namespace planet {
 
@@ -58,6 +59,8 @@ namespace {
 // of it, since their wiggle is the continents' outline.
 constexpr double kBaseShapeOffset = 0.5;
 constexpr double kLandOffset = 0.15;
+// A drain split's vertex keeps at least this share of the drop to each end.
+constexpr double kDrainMargin = 0.2;
 
 // Unit vector in the tangent plane at p closest to direction v (zero if v is radial).
 std::array<float, 3> tangent_at(const Vec3d& p, const Vec3d& v) {
@@ -69,6 +72,16 @@ std::array<float, 3> tangent_at(const Vec3d& p, const Vec3d& v) {
 
 Vec3d to_vec(const std::array<float, 3>& t) {
   return {static_cast<double>(t[0]), static_cast<double>(t[1]), static_cast<double>(t[2])};
+}
+
+// The smooth ground of the level being split (smooth_surface.hpp) at p, a point of the diamond
+// (a, b; t, d) whose four corners are dry: what a new vertex there is predicted from.
+double smooth_ground_at(const Rules& rules, const Vertex& a, const Vertex& b, const Vertex& t,
+                        const Vertex& d, const Vec3d& p) {
+  const std::array<const Vertex*, 3> tri = det(a.p, b.p, p) >= 0.0
+                                               ? std::array<const Vertex*, 3>{&a, &b, &t}
+                                               : std::array<const Vertex*, 3>{&b, &a, &d};
+  return clough_tocher(tri, barycentric(tri[0]->p, tri[1]->p, tri[2]->p, p), rules.radius);
 }
 
 // The split of diamond (a, b; t, d) with a, b in canonical order (see split_diamond).
@@ -108,6 +121,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       normalize(add(add(scale(a.p, wa), scale(t.p, wt)), add(scale(d.p, wd), scale(b.p, wb))));
   auto offset = [&](double share) { return normalize(add(mid, scale(sub(eq2, mid), share))); };
   const double l_ab = rules.radius * angle(a.p, b.p);
+  const bool dry_diamond = !wet(a) && !wet(b) && !wet(t) && !wet(d);
   // Dry: the water surface stays below the ground, so a river's water meets its banks inside
   // the triangles next to it instead of flooding them. The water surface of a dry vertex only
   // says how far a neighbour's water reaches towards it: one riverbed slope (s_rb) per metre of
@@ -170,19 +184,25 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
     }
     case EdgeType::drain: {
       // Between its ends in height too, so both halves drain downhill: the upper end keeps a
-      // strictly lower neighbour at every level. The split point's share of the drop follows
-      // its distance along the edge, jittered a little.
+      // strictly lower neighbour at every level.
       const double level_a = outflow_level(a), level_b = outflow_level(b);
       const bool a_up = level_a > level_b || (level_a == level_b && a.seed < b.seed);
       const Vertex& up = a_up ? a : b;
       const Vertex& down = a_up ? b : a;
       const double high = a_up ? level_a : level_b, low = a_up ? level_b : level_a;
       m.p = place(offset(kLandOffset));
-      const double to_up = angle(m.p, up.p), to_down = angle(m.p, down.p);
-      const double f = std::clamp(to_down / (to_up + to_down) + 0.1 * (2.0 * g1 - 1.0), 0.2, 0.8);
       m.flags = kLand;
       m.detail = 1.0f;
-      m.ground = low + (high - low) * f;
+      if (dry_diamond) {
+        // On the smooth surface, kept within the middle of the drop.
+        m.ground =
+            std::clamp(smooth_ground_at(rules, a, b, t, d, m.p), low + kDrainMargin * (high - low),
+                       high - kDrainMargin * (high - low));
+      } else {  // the split point's share of the drop follows its place, jittered a little
+        const double to_up = angle(m.p, up.p), to_down = angle(m.p, down.p);
+        const double f = std::clamp(to_down / (to_up + to_down) + 0.1 * (2.0 * g1 - 1.0), 0.2, 0.8);
+        m.ground = low + (high - low) * f;
+      }
       m.water = dry_water(0.5 * (a.water + b.water));
       return r;
     }
@@ -231,8 +251,10 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   m.flags = kLand;
   m.detail = 1.0f;
   // The estimate: eq. 5 for a mountain vertex between rivers, else the surface under the new
-  // position displaced by the fractal's roughness at this edge length.
-  double estimate = wa * a.ground + wt * t.ground + wd * d.ground + wb * b.ground +
+  // position (the smooth one among dry corners, eq. 2's weights beside water) displaced by the
+  // fractal's roughness at this edge length.
+  double estimate = (dry_diamond ? smooth_ground_at(rules, a, b, t, d, m.p)
+                                 : wa * a.ground + wt * t.ground + wd * d.ground + wb * b.ground) +
                     rules.roughness(l_ab) * (2.0 * g1 - 1.0);
   if (wet(a) && wet(b)) {
     int highest = -1;
@@ -287,10 +309,20 @@ SplitResult split_diamond(const Rules& rules, int level, const Vertex& a, const 
   // Canonical roles: ev1 is the end with the smaller seed (positions break a tie), so both
   // triangles of a diamond compute the same vertex.
   const bool swap = a.seed > b.seed || (a.seed == b.seed && a.p > b.p);
-  if (!swap) return split_ordered(rules, level, a, b, t, d, base, face_t, face_d);
-  SplitResult r = split_ordered(rules, level, b, a, d, t, base, face_d, face_t);
-  std::swap(r.half_a, r.half_b);
-  std::swap(r.spoke_t, r.spoke_d);
+  const Vertex& ev1 = swap ? b : a;
+  const Vertex& ev2 = swap ? a : b;
+  const Vertex& apex1 = swap ? d : t;  // the apex of the triangle (ev1, ev2, apex1)
+  const Vertex& apex2 = swap ? t : d;
+  SplitResult r = split_ordered(rules, level, ev1, ev2, apex1, apex2, base, swap ? face_d : face_t,
+                                swap ? face_t : face_d);
+  if (swap) {
+    std::swap(r.half_a, r.half_b);
+    std::swap(r.spoke_t, r.spoke_d);
+  }
+  // Only dry land's slopes are read (the smooth surface's corners are all dry). The fan around m
+  // is ev2, apex1, ev1, apex2 counter-clockwise (Hierarchy::locate_child), summed from the same
+  // corner whichever triangle of the diamond asks, so the same bits.
+  if (!wet(r.m)) r.m.slope = fan_slope(r.m, {&ev2, &apex1, &ev1, &apex2}, rules.radius);
   return r;
 }
 

@@ -55,6 +55,10 @@ struct Vertex {
   /// Rivers: the area they drain (m²), the base level's land upstream of the vertex and its own
   /// share; a river split's vertex drains what its upstream end does, a new arm's spring 0.
   float drainage_area = 0.0f;
+  /// The ground's slope (metres per metre, tangent at p): the gradient of the plane that best fits
+  /// the vertex and its four neighbours when it was made (smooth_surface.hpp). Dry land between
+  /// vertices follows a C1 cubic through their heights with these slopes.
+  std::array<float, 3> slope{};
 };
 
 /// Water stands on or flows through the vertex: sea, coast, river (springs included), or water

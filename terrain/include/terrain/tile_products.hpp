@@ -34,8 +34,9 @@ namespace terrain {
 /// into well-shaped triangles, and leave the fractal's octaves longer than finest_edge to the mesh.
 /// 10: erosion keeps its heights in float and its uplift in 16 bits (fifteen bytes per cell, input
 /// included: 2048² in 61.5 MiB); the drainage's water layer weighs nothing on dry land away from
-/// water (no shores painted there).
-inline constexpr int kProductGeneration = 10;
+/// water (no shores painted there). 11: planets' dry land is a C1 surface (Clough–Tocher cubics
+/// over vertex slopes), and splits among dry vertices predict from it.
+inline constexpr int kProductGeneration = 11;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB

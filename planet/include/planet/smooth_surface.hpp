@@ -1,0 +1,41 @@
+// The smooth ground of dry land (issue 20 item 4): a C1 surface over the mesh instead of flat
+// facets. Every vertex carries the slope of its ground (Vertex::slope), estimated when it is made
+// from the fan of four triangles around it; a triangle whose corners are all dry is filled with
+// the Clough–Tocher cubic of its corners' heights and slopes (Farin 1986: three cubic Bézier
+// patches around the centroid, the cross-edge derivative linear along each edge). Along an edge
+// that cubic depends on the edge's two ends only, and so does the cross-edge derivative, so two
+// triangles sharing an edge meet with the same height and the same slope.
+//
+// Splits predict a new dry vertex from this surface (refine.cpp), so refinement adds detail to a
+// smooth surface rather than to the facets of the level above: without it a level's triangles
+// survive every later level as flat facets with creases along their edges.
+#pragma once
+
+#include <array>
+
+#include "planet/mesh.hpp"
+
+namespace planet {
+
+/// True when every corner is dry land (not wet): the triangles the cubic fills.
+inline bool all_dry(const std::array<const Vertex*, 3>& corner) {
+  return !wet(*corner[0]) && !wet(*corner[1]) && !wet(*corner[2]);
+}
+
+/// The Clough–Tocher height at gnomonic barycentric coordinates w of the triangle (corners
+/// counter-clockwise or not), from the corners' ground and slope; `radius` in metres.
+double clough_tocher(const std::array<const Vertex*, 3>& corner, const std::array<double, 3>& w,
+                     double radius);
+
+/// The cubic along the edge from u to v at parameter s (0 at u, 1 at v): the surface's value on
+/// that edge in every triangle the cubic fills, and what the valley floors (planet.cpp) use for
+/// their dry edge so that they meet those triangles without a step.
+double edge_cubic(const Vertex& u, const Vertex& v, double s, double radius);
+
+/// The slope (metres per metre, tangent at m) of a new vertex from its four neighbours `ring`,
+/// counter-clockwise around it: the area-weighted mean of the gradients of the four triangles
+/// (m, ring[k], ring[k + 1]).
+std::array<float, 3> fan_slope(const Vertex& m, const std::array<const Vertex*, 4>& ring,
+                               double radius);
+
+}  // namespace planet

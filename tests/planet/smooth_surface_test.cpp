@@ -1,0 +1,222 @@
+// The smooth ground of dry land (issue 20 item 4): the Clough–Tocher cubic reproduces quadratics,
+// meets its neighbours with the same slope, and the planet's dry land shows neither flat facets
+// nor creases along triangle edges.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "planet/planet.hpp"
+#include "planet/smooth_surface.hpp"
+
+namespace planet {
+namespace {
+
+// Triangles in the plane z = 1, with radius 1: gnomonic coordinates are the plane's own there,
+// and a slope without z is tangent to it, so the cubic's algebra is checked exactly.
+struct Quadratic {
+  double c, gx, gy, xx, xy, yy;
+  double at(double x, double y) const {
+    return c + gx * x + gy * y + xx * x * x + xy * x * y + yy * y * y;
+  }
+  Vertex vertex(double x, double y) const {
+    Vertex v;
+    v.p = {x, y, 1.0};
+    v.ground = at(x, y);
+    v.slope = {static_cast<float>(gx + 2 * xx * x + xy * y),
+               static_cast<float>(gy + xy * x + 2 * yy * y), 0.0f};
+    return v;
+  }
+};
+
+double height(const std::array<const Vertex*, 3>& corner, double x, double y) {
+  const Vec3d p{x, y, 1.0};
+  return clough_tocher(corner, barycentric(corner[0]->p, corner[1]->p, corner[2]->p, p), 1.0);
+}
+
+Vertex random_vertex(std::mt19937& random, double x, double y) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Vertex v;
+  v.p = {x, y, 1.0};
+  v.ground = 100.0 * u(random);
+  v.slope = {static_cast<float>(u(random)), static_cast<float>(u(random)), 0.0f};
+  return v;
+}
+
+// How much a line's slope changes across the point t·d from o: the one-sided slopes' difference
+// at step h. A crease keeps it as h shrinks; a C1 surface's shrinks with h.
+template <typename F>
+double slope_jump(const F& f, double t, double h) {
+  return std::abs((f(t + h) - f(t)) / h - (f(t) - f(t - h)) / h);
+}
+
+TEST(CloughTocher, ReproducesQuadratics) {
+  // Whose normal derivative along an edge is linear, as the reduced cubic assumes: exact there.
+  const Quadratic q{3.0, 0.4, -0.7, 0.9, -1.3, 0.5};
+  const Vertex a = q.vertex(0.1, 0.2), b = q.vertex(0.9, 0.1), c = q.vertex(0.4, 0.8);
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 200; ++i) {
+    double s = u(random), t = u(random);
+    if (s + t > 1.0) s = 1.0 - s, t = 1.0 - t;
+    const double x = a.p[0] + s * (b.p[0] - a.p[0]) + t * (c.p[0] - a.p[0]);
+    const double y = a.p[1] + s * (b.p[1] - a.p[1]) + t * (c.p[1] - a.p[1]);
+    // Slopes are floats: exact to their rounding.
+    EXPECT_NEAR(height({&a, &b, &c}, x, y), q.at(x, y), 1e-7) << x << ", " << y;
+  }
+}
+
+TEST(CloughTocher, MeetsItsNeighbourWithTheSameHeightAndSlope) {
+  std::mt19937 random(11);
+  const Vertex a = random_vertex(random, 0.0, 0.0), b = random_vertex(random, 1.0, 0.1);
+  const Vertex c = random_vertex(random, 0.3, 0.9), d = random_vertex(random, 0.6, -0.8);
+  // Across the shared edge (a, b), perpendicular to it, from (a, b, c) into (b, a, d).
+  const double ex = b.p[0] - a.p[0], ey = b.p[1] - a.p[1];
+  const double length = std::hypot(ex, ey);
+  const double nx = ey / length, ny = -ex / length;  // towards d
+  for (double s : {0.1, 0.3, 0.5, 0.7, 0.9}) {
+    const double ox = a.p[0] + s * ex, oy = a.p[1] + s * ey;
+    auto along = [&](double t) {
+      const double x = ox + t * nx, y = oy + t * ny;
+      return t < 0.0 ? height({&a, &b, &c}, x, y) : height({&b, &a, &d}, x, y);
+    };
+    EXPECT_NEAR(height({&a, &b, &c}, ox, oy), height({&b, &a, &d}, ox, oy), 1e-9);
+    const double coarse = slope_jump(along, 0.0, 1e-3), fine = slope_jump(along, 0.0, 1e-4);
+    EXPECT_LT(fine, 0.15 * coarse + 1e-6) << "a crease at s = " << s;
+  }
+  // And inside, across the spokes between the three patches of a triangle: along lines through
+  // the centroid, where every spoke meets.
+  const double cx = (a.p[0] + b.p[0] + c.p[0]) / 3.0, cy = (a.p[1] + b.p[1] + c.p[1]) / 3.0;
+  for (double angle = 0.1; angle < 6.28; angle += 0.7) {
+    auto along = [&](double t) {
+      return height({&a, &b, &c}, cx + t * std::cos(angle), cy + t * std::sin(angle));
+    };
+    EXPECT_LT(slope_jump(along, 0.0, 1e-4), 0.15 * slope_jump(along, 0.0, 1e-3) + 1e-6);
+  }
+}
+
+TEST(CloughTocher, FanSlopeIsThePlanesGradient) {
+  // Four neighbours on a plane: the fan's slope is that plane's gradient.
+  const Quadratic plane{2.0, 0.3, -0.8, 0.0, 0.0, 0.0};
+  const Vertex m = plane.vertex(0.0, 0.0);
+  const Vertex east = plane.vertex(0.5, 0.0), north = plane.vertex(0.1, 0.6);
+  const Vertex west = plane.vertex(-0.7, 0.1), south = plane.vertex(0.0, -0.4);
+  const std::array<float, 3> slope = fan_slope(m, {&east, &north, &west, &south}, 1.0);
+  EXPECT_NEAR(slope[0], 0.3, 1e-6);
+  EXPECT_NEAR(slope[1], -0.8, 1e-6);
+}
+
+// The default planet's land around 5° N 175° W (bench/planet_realism.sh's square) at a level of
+// ~1 km edges, without the fractal detail: the mesh's own surface.
+class DryLand : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    PlanetDefinition d;
+    d.seed = 20110627;
+    d.land_fraction = 0.35;
+    d.max_river_altitude = 4500;
+    d.max_mountain_altitude = 8000;
+    planet_ = Planet::create(d);
+  }
+  static void TearDownTestSuite() { planet_.reset(); }
+
+  int level() const {
+    int level = planet_->rules().mesh_level;
+    while (planet_->rules().edge_length(level) > 1200.0) ++level;
+    return level;
+  }
+  // A point `east`, `north` metres from the square's centre (on the tangent plane, lifted).
+  Vec3d point(double east, double north) const {
+    const Vec3d centre = planet_->geodesy().direction(5.0, -175.0);
+    const Vec3d e = normalize(cross({0.0, 0.0, 1.0}, centre));
+    const Vec3d n = cross(centre, e);
+    const double r = planet_->definition().radius;
+    return normalize(add(centre, add(scale(e, east / r), scale(n, north / r))));
+  }
+  bool dry_triangle(Hierarchy& h, const Vec3d& p) const {
+    const Tri& tri = h.tris[static_cast<std::size_t>(h.locate(p, level()))];
+    return tri.face == FaceType::land &&
+           all_dry({&h.vertices[tri.v[0]], &h.vertices[tri.v[1]], &h.vertices[tri.v[2]]});
+  }
+
+  static std::shared_ptr<const Planet> planet_;
+};
+std::shared_ptr<const Planet> DryLand::planet_;
+
+TEST_F(DryLand, HasNoFlatFacets) {
+  // The share of samples whose four neighbours 50 m away average to their own height: every
+  // sample inside a flat facet does. On the piecewise-linear surface this was most of them.
+  Sampler sampler(planet_);
+  const int n = 64;
+  std::vector<double> ground(n * n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      ground[i * n + j] = sampler.at(point(50.0 * j, 50.0 * i), level(), 0.0).ground;
+    }
+  }
+  int flat = 0, samples = 0;
+  for (int i = 1; i + 1 < n; ++i) {
+    for (int j = 1; j + 1 < n; ++j) {
+      const double laplacian = ground[(i - 1) * n + j] + ground[(i + 1) * n + j] +
+                               ground[i * n + j - 1] + ground[i * n + j + 1] -
+                               4 * ground[i * n + j];
+      flat += std::abs(laplacian) < 1e-6 ? 1 : 0;
+      ++samples;
+    }
+  }
+  EXPECT_LT(flat, samples / 100) << flat << " of " << samples << " samples lie in flat facets";
+}
+
+TEST_F(DryLand, HasNoCreasesAcrossTriangleEdges) {
+  // Along lines over the square, every crossing from one dry triangle into another: the slope's
+  // change across it shrinks with the step (C1), where a crease would keep it.
+  Sampler sampler(planet_);
+  Hierarchy h = planet_->base_mesh().hierarchy;
+  const double step = 20.0;
+  int crossings = 0;
+  for (int line = 0; line < 6; ++line) {
+    const double north = 900.0 * line;
+    auto ground = [&](double east) { return sampler.at(point(east, north), level(), 0.0).ground; };
+    auto leaf = [&](double east) { return h.locate(point(east, north), level()); };
+    for (double east = 0.0; east < 6000.0; east += step) {
+      if (leaf(east) == leaf(east + step)) continue;
+      double lo = east, hi = east + step;  // the crossing, to a millimetre
+      while (hi - lo > 1e-3) {
+        const double mid = 0.5 * (lo + hi);
+        (leaf(mid) == leaf(lo) ? lo : hi) = mid;
+      }
+      const double at = 0.5 * (lo + hi);
+      if (!dry_triangle(h, point(at - 2.0, north)) || !dry_triangle(h, point(at + 2.0, north)) ||
+          leaf(at - 2.0) == leaf(at + 2.0)) {
+        continue;  // beside water (valley floors), or past a corner
+      }
+      const double coarse = slope_jump(ground, at, 2.0), fine = slope_jump(ground, at, 0.2);
+      EXPECT_LT(fine, 0.2 * coarse + 1e-5)
+          << "a crease at " << at << " m east, " << north << " m north: slope change " << coarse
+          << " over 2 m, " << fine << " over 0.2 m";
+      ++crossings;
+    }
+  }
+  EXPECT_GT(crossings, 40);
+}
+
+TEST_F(DryLand, SplitsGiveTheSameVertexFromEitherTriangleOfTheirDiamond) {
+  // A split is computed by whichever of the diamond's two triangles a descent reaches first; the
+  // smooth prediction and the fan's slope must not depend on which, to the bit.
+  Hierarchy h = planet_->base_mesh().hierarchy;
+  int dry = 0;
+  for (int k = 0; k < 1000; ++k) {
+    const std::int32_t t = h.locate(point(7.0 * k, 5.0 * k), level() - 1);
+    h.ensure_partner(t);
+    const SplitResult one = h.compute_split(t);
+    const SplitResult other = h.compute_split(h.tris[static_cast<std::size_t>(t)].nb[0]);
+    EXPECT_EQ(one.m.p, other.m.p);
+    EXPECT_EQ(one.m.ground, other.m.ground);
+    EXPECT_EQ(one.m.slope, other.m.slope);
+    dry += wet(one.m) ? 0 : 1;
+  }
+  EXPECT_GT(dry, 500);
+}
+
+}  // namespace
+}  // namespace planet
