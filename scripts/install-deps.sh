@@ -10,7 +10,7 @@ packages=(
   build-essential cmake ninja-build pkg-config
   nlohmann-json3-dev libssl-dev libopenimageio-dev openimageio-tools
   libgtest-dev libgmock-dev libbenchmark-dev
-  libdraco-dev libgeographiclib-dev zlib1g-dev libtiff-dev
+  libdraco-dev libgeographiclib-dev zlib1g-dev libtiff-dev libpng-dev
   libboost1.81-dev libtomlplusplus-dev libsqlite3-dev libpq-dev libhiredis-dev
   gdal-bin jq nodejs clang libclang-rt-14-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri

@@ -297,7 +297,7 @@ int cmd_render(const Args& args) {
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   const Status written = write_png_rgb8(out, picture.width, picture.height, picture.rgb.data(),
-                                        terrain::PngFilter::up);
+                                        terrain::PngKind::shaded);
   if (!written) {
     std::cerr << "terrain render: " << written.error().message << "\n";
     return 1;

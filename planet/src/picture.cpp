@@ -113,7 +113,7 @@ Result<std::vector<std::uint8_t>> planet_picture_png(const std::shared_ptr<const
                                                      const PictureOptions& options) {
   const int width = std::max(8, options.width);
   const std::vector<std::uint8_t> rgb = planet_picture_rgb(planet, options);
-  return terrain::encode_png_rgb8(width, width / 2, rgb.data(), terrain::PngFilter::up);
+  return terrain::encode_png_rgb8(width, width / 2, rgb.data(), terrain::PngKind::shaded);
 }
 
 }  // namespace planet

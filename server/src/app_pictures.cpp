@@ -184,7 +184,7 @@ Outcome App::render(const Request& request, const LoadedVersion& loaded, const T
       return bytes;
     }
     auto png = terrain::encode_png_rgb8(picture.width, picture.height, picture.rgb.data(),
-                                        terrain::PngFilter::up);
+                                        terrain::PngKind::shaded);
     if (!png) {
       return problem(reply.shadow(), http::status::internal_server_error, "Encoding failed",
                      png.error().message);

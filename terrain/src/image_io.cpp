@@ -1,6 +1,9 @@
-// Image input/output through OpenImageIO. Everything OIIO reports (return codes, pending error
-// text, exceptions) is turned into an Error here so that callers see one uniform failure path.
+// Image input/output through OpenImageIO (shaded PNGs through libpng: png_huffman.hpp). Everything
+// OIIO reports (return codes, pending error text, exceptions) is turned into an Error here so that
+// callers see one uniform failure path.
 #include "terrain/image_io.hpp"
+
+#include "png_huffman.hpp"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
@@ -281,14 +284,11 @@ Status check_dimensions(int width, int height, const void* data) {
 // set; DateTime is pinned empty because the TIFF and OpenEXR writers otherwise stamp the current
 // time, which would make the bytes differ from one second to the next.
 struct EncodeOptions {
-  PngFilter png_filter = PngFilter::paeth;
   int jpeg_quality = 0;  ///< 0: not a JPEG
 };
 
-// libpng's filter flags (png.h's PNG_FILTER_PAETH, PNG_FILTER_UP), which OIIO passes on.
-int png_filter_flags(PngFilter filter) {
-  return filter == PngFilter::up ? 0x20 : 0x80;
-}
+// libpng's PNG_FILTER_PAETH, which OIIO passes on: numeric PNGs (PngKind::numeric).
+constexpr int kPaethFilter = 0x80;
 
 Result<std::vector<std::uint8_t>> encode_impl(const char* format, int width, int height,
                                               int channels, OIIO::TypeDesc type, const void* pixels,
@@ -309,7 +309,7 @@ Result<std::vector<std::uint8_t>> encode_impl(const char* format, int width, int
   // tile within its 10 ms budget (docs/performance.md).
   spec.attribute("compression", "zip:1");
   spec.attribute("png:compressionLevel", 1);
-  spec.attribute("png:filter", png_filter_flags(options.png_filter));
+  spec.attribute("png:filter", kPaethFilter);
   if (options.jpeg_quality > 0) {
     spec.attribute("compression", "jpeg:" + std::to_string(options.jpeg_quality));
   }
@@ -379,17 +379,20 @@ Result<std::vector<std::uint8_t>> encode_png16(int width, int height,
 }
 
 Result<std::vector<std::uint8_t>> encode_png_gray8(int width, int height,
-                                                   const std::uint8_t* samples, PngFilter filter) {
+                                                   const std::uint8_t* samples) {
   return guarded("cannot encode PNG", [&] {
-    return encode_impl("png", width, height, 1, OIIO::TypeDesc::UINT8, samples, {filter});
+    return encode_impl("png", width, height, 1, OIIO::TypeDesc::UINT8, samples);
   });
 }
 
 Result<std::vector<std::uint8_t>> encode_png_rgb8(int width, int height, const std::uint8_t* rgb,
-                                                  PngFilter filter) {
-  return guarded("cannot encode PNG", [&] {
-    return encode_impl("png", width, height, 3, OIIO::TypeDesc::UINT8, rgb, {filter});
-  });
+                                                  PngKind kind) {
+  if (kind == PngKind::shaded) {
+    if (Status ok = check_dimensions(width, height, rgb); !ok) return ok.error();
+    return encode_png_up_huffman(width, height, rgb);
+  }
+  return guarded("cannot encode PNG",
+                 [&] { return encode_impl("png", width, height, 3, OIIO::TypeDesc::UINT8, rgb); });
 }
 
 Result<std::vector<std::uint8_t>> encode_jpeg_rgb8(int width, int height, const std::uint8_t* rgb,
@@ -412,9 +415,9 @@ Status write_png16(const std::string& path, int width, int height, const std::ui
 }
 
 Status write_png_rgb8(const std::string& path, int width, int height, const std::uint8_t* rgb,
-                      PngFilter filter) {
+                      PngKind kind) {
   return guarded("cannot write '" + path + "'",
-                 [&] { return write_bytes(path, encode_png_rgb8(width, height, rgb, filter)); });
+                 [&] { return write_bytes(path, encode_png_rgb8(width, height, rgb, kind)); });
 }
 
 }  // namespace terrain

@@ -155,7 +155,7 @@ Result<std::vector<std::uint8_t>> encode_color(const HeightTile& tile,
   Result<Bytes> rgb = color_pixels(tile, inputs);
   if (!rgb) return rgb.error();
   return codec == ColorCodec::png
-             ? encode_png_rgb8(tile.width, tile.height, rgb->data(), PngFilter::up)
+             ? encode_png_rgb8(tile.width, tile.height, rgb->data(), PngKind::shaded)
              : encode_jpeg_rgb8(tile.width, tile.height, rgb->data(), kColorJpegQuality);
 }
 

@@ -201,6 +201,34 @@ TEST(ImageIoRoundTrip, TiledImagesAreReadInBands) {
   }
 }
 
+TEST(ImageIoRoundTrip, RgbPngsOfEitherKindGiveEveryChannelBack) {
+  // Shaded PNGs (colour tiles, pictures) go through libpng with Huffman coding alone, numeric ones
+  // through OpenImageIO: a standard reader gets every byte back from both.
+  TempDir dir;
+  const int w = 37, h = 29;  // odd sizes: no row happens to align
+  std::vector<std::uint8_t> rgb(static_cast<std::size_t>(w * h * 3));
+  for (std::size_t k = 0; k < rgb.size(); ++k) {
+    rgb[k] = k < rgb.size() / 3 ? 200 : static_cast<std::uint8_t>((k * 2654435761u) >> 13);
+  }
+  for (const PngKind kind : {PngKind::shaded, PngKind::numeric}) {
+    const std::string path = dir.file(kind == PngKind::shaded ? "shaded.png" : "numeric.png");
+    ASSERT_TRUE(write_png_rgb8(path, w, h, rgb.data(), kind).ok());
+    auto in = OIIO::ImageInput::open(path);
+    ASSERT_TRUE(in);
+    ASSERT_EQ(in->spec().width, w);
+    ASSERT_EQ(in->spec().height, h);
+    ASSERT_EQ(in->spec().nchannels, 3);
+    std::vector<std::uint8_t> back(rgb.size());
+    ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, back.data()));
+    EXPECT_EQ(back, rgb);
+  }
+  const auto shaded = encode_png_rgb8(w, h, rgb.data(), PngKind::shaded);
+  ASSERT_TRUE(shaded.ok());
+  EXPECT_EQ(shaded.value(), encode_png_rgb8(w, h, rgb.data(), PngKind::shaded).value());
+  EXPECT_FALSE(encode_png_rgb8(0, h, rgb.data(), PngKind::shaded).ok());
+  EXPECT_FALSE(encode_png_rgb8(w, h, nullptr, PngKind::shaded).ok());
+}
+
 TEST(ImageIoDecode, MemoryEqualsFileWhateverTheHint) {
   TempDir dir;
   const int w = 11, h = 8;

@@ -51,23 +51,27 @@ Result<Raster> decode_heightfield(std::span<const std::uint8_t> bytes, std::stri
 
 /// Single-channel 32-bit float TIFF (deflate at level 1, the fastest), row 0 first.
 Result<std::vector<std::uint8_t>> encode_float_tiff(int width, int height, const float* samples);
-/// The one PNG row filter every row of an image gets. libpng's default tries all five on every
-/// row and keeps the smallest guess, which costs about a millisecond per 256² tile; one fixed
-/// filter chosen per kind of image gives the same size within a few percent (docs/performance.md).
-enum class PngFilter {
-  paeth,  ///< heights and other numeric images: what the trial picked on nearly every row anyway
-  up,     ///< shaded pictures: rows resemble the row above
+/// What a PNG holds, which decides how it is written (docs/performance.md). libpng's default tries
+/// all five row filters on every row and keeps the smallest guess, which costs about a millisecond
+/// per 256² tile; one fixed filter per kind of image gives the same size within a few percent.
+enum class PngKind {
+  /// Heights and other numeric images: Paeth on every row (what the trial picked on nearly every
+  /// row anyway), deflated at level 1.
+  numeric,
+  /// Shaded pictures and colour tiles: Up on every row (rows resemble the row above), and Huffman
+  /// coding alone, since string matching hardly shortens their residuals: about 4 % more bytes
+  /// than level 1 in half the time.
+  shaded,
 };
 
 /// Single-channel 16-bit greyscale PNG.
 Result<std::vector<std::uint8_t>> encode_png16(int width, int height, const std::uint16_t* samples);
-/// Single-channel 8-bit greyscale PNG.
+/// Single-channel 8-bit greyscale PNG (numeric: hillshades, masks, continent maps).
 Result<std::vector<std::uint8_t>> encode_png_gray8(int width, int height,
-                                                   const std::uint8_t* samples,
-                                                   PngFilter filter = PngFilter::paeth);
+                                                   const std::uint8_t* samples);
 /// 8-bit RGB PNG; `rgb` holds width * height * 3 bytes, pixel-interleaved.
 Result<std::vector<std::uint8_t>> encode_png_rgb8(int width, int height, const std::uint8_t* rgb,
-                                                  PngFilter filter = PngFilter::paeth);
+                                                  PngKind kind = PngKind::numeric);
 
 /// 8-bit RGB baseline JPEG at `quality` (1..100), 4:2:0 chroma, no metadata.
 Result<std::vector<std::uint8_t>> encode_jpeg_rgb8(int width, int height, const std::uint8_t* rgb,
@@ -78,6 +82,6 @@ Result<std::vector<std::uint8_t>> encode_jpeg_rgb8(int width, int height, const 
 Status write_float_tiff(const std::string& path, int width, int height, const float* samples);
 Status write_png16(const std::string& path, int width, int height, const std::uint16_t* samples);
 Status write_png_rgb8(const std::string& path, int width, int height, const std::uint8_t* rgb,
-                      PngFilter filter = PngFilter::paeth);
+                      PngKind kind = PngKind::numeric);
 
 }  // namespace terrain

@@ -28,14 +28,15 @@ namespace terrain {
 /// 4: pictures' soft shadows, sky occlusion, Rayleigh–Mie sky, aerial perspective and water.
 /// 5: material parameters: slope bands at whole degrees, a snow line lower towards planets' poles.
 /// 6: pictures draw the scene's water layer (terrain::WaterRaster). 7: PNGs filter every row with
-/// one fixed filter (terrain::PngFilter) instead of libpng's per-row trial. 8: planet rivers are
+/// one fixed filter (terrain::PngKind) instead of libpng's per-row trial. 8: planet rivers are
 /// as deep (and their channels as wide) as their drainage area makes them (depth ∝ A^0.4).
 /// 9: planets drain at every level (drain edges, valley floors along rivers and coasts), bisect
 /// into well-shaped triangles, and leave the fractal's octaves longer than finest_edge to the mesh.
 /// 10: erosion keeps its heights in float and its uplift in 16 bits (fifteen bytes per cell, input
 /// included: 2048² in 61.5 MiB); the drainage's water layer weighs nothing on dry land away from
 /// water (no shores painted there). 11: planets' dry land is a C1 surface (Clough–Tocher cubics
-/// over vertex slopes), and splits among dry vertices predict from it.
+/// over vertex slopes), and splits among dry vertices predict from it; shaded PNGs (colour tiles,
+/// pictures) are deflated by Huffman coding alone.
 inline constexpr int kProductGeneration = 11;
 
 enum class TileFormat {
