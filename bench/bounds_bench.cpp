@@ -28,9 +28,6 @@ namespace {
 
 using namespace terrain;
 
-constexpr const char* kExamples[] = {"butte",      "craters",        "hills-river",
-                                     "lake-dunes", "mountain-range", "winding-road"};
-
 // The largest |∇f| at full detail on a grid of `spacing` metres over `area`, in strips so memory
 // stays small whatever the spacing.
 float steepest_slope(const Program& program, const Box2& area, double spacing) {
@@ -81,7 +78,7 @@ CellTightness cell_tightness(Evaluator& e, const Program& program, const Box2& a
   return out;
 }
 
-void BM_BoundTightness(benchmark::State& state, const char* name, double spacing) {
+void BM_BoundTightness(benchmark::State& state, const std::string& name, double spacing) {
   const bench::LoadedExample& l = bench::load_example(name);
   Evaluator e(l.program);
   const float global = e.global_bounds().elevation_lipschitz;
@@ -99,7 +96,7 @@ void BM_BoundTightness(benchmark::State& state, const char* name, double spacing
 
 // `lit`: with soft shadows and sky occlusion (render()'s default), else the sun and sky light
 // without them; issue 21 asks the lit picture to cost at most 1.5 times the unlit one.
-void BM_TracedPicture(benchmark::State& state, const char* name, bool lit) {
+void BM_TracedPicture(benchmark::State& state, const std::string& name, bool lit) {
   const bench::LoadedExample& l = bench::load_example(name);
   const auto width = static_cast<int>(state.range(0)), height = static_cast<int>(state.range(1));
   const Camera camera = default_camera(l.program, l.scene.area(), width, height);
@@ -124,15 +121,14 @@ void BM_TracedPicture(benchmark::State& state, const char* name, bool lit) {
 }
 
 const bool kRegistered = [] {
-  for (const char* name : kExamples) {
-    benchmark::RegisterBenchmark((std::string("BM_BoundTightness/") + name).c_str(),
-                                 BM_BoundTightness, name, 1.0)
+  for (const std::string& name : bench::example_names()) {
+    benchmark::RegisterBenchmark(("BM_BoundTightness/" + name).c_str(), BM_BoundTightness, name,
+                                 1.0)
         ->Unit(benchmark::kSecond)
         ->Iterations(1);
     for (const bool lit : {false, true}) {
-      benchmark::RegisterBenchmark(
-          (std::string("BM_TracedPicture/") + name + (lit ? "/lit" : "/unlit")).c_str(),
-          BM_TracedPicture, name, lit)
+      benchmark::RegisterBenchmark(("BM_TracedPicture/" + name + (lit ? "/lit" : "/unlit")).c_str(),
+                                   BM_TracedPicture, name, lit)
           ->Args({160, 100})
           ->Unit(benchmark::kMillisecond)
           ->Iterations(1);

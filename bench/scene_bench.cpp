@@ -4,7 +4,6 @@
 // and encoded as a float TIFF.
 #include <benchmark/benchmark.h>
 
-#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -20,9 +19,6 @@
 namespace {
 
 using namespace terrain;
-namespace fs = std::filesystem;
-
-const fs::path kScenes = fs::path(TERRAIN_SOURCE_DIR) / "config" / "scenes";
 
 void points(benchmark::State& state, const std::string& name, float spacing) {
   const bench::LoadedExample& l = bench::load_example(name);
@@ -70,9 +66,7 @@ void tile(benchmark::State& state, const std::string& name, bool encode) {
 }
 
 int register_all() {
-  for (const auto& entry : fs::directory_iterator(kScenes)) {
-    if (entry.path().extension() != ".json") continue;
-    const std::string name = entry.path().stem().string();
+  for (const std::string& name : bench::example_names()) {
     benchmark::RegisterBenchmark(("Point/" + name + "/full_detail").c_str(),
                                  [name](benchmark::State& s) { points(s, name, 0.0f); });
     benchmark::RegisterBenchmark(("Point/" + name + "/spacing_10m").c_str(),

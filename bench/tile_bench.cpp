@@ -3,24 +3,22 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
-#include <filesystem>
 #include <map>
 #include <memory>
 
 #include "terrain/tile_products.hpp"
 
+#include "example_scenes.hpp"
+
 namespace {
 
 using namespace terrain;
-namespace fs = std::filesystem;
-
-const fs::path kScenes = fs::path(TERRAIN_SOURCE_DIR) / "config" / "scenes";
 
 ProductMaker& maker(const std::string& name) {
   static std::map<std::string, std::unique_ptr<ProductMaker>> makers;
   auto& m = makers[name];
   if (!m) {
-    Scene scene = load_scene_file((kScenes / (name + ".json")).string()).value();
+    Scene scene = load_scene_file(bench::example_file(name)).value();
     m = std::make_unique<ProductMaker>(TileSource::from_scene(scene).value());
   }
   return *m;
@@ -54,9 +52,7 @@ void tile(benchmark::State& state, const std::string& name, TileFormat format, i
 }
 
 int register_all() {
-  for (const auto& entry : fs::directory_iterator(kScenes)) {
-    if (entry.path().extension() != ".json") continue;
-    const std::string name = entry.path().stem().string();
+  for (const std::string& name : bench::example_names()) {
     for (const TileFormatInfo& info : tile_formats()) {
       const std::string label = name + "/" + std::string(info.extension) +
                                 (info.encoding.empty() ? "" : "-" + std::string(info.encoding));
