@@ -565,7 +565,6 @@ std::string BaseMesh::hash() const {
     feed(&v.flags, 1);
     feed(&v.detail, sizeof v.detail);
     feed(&v.drainage_area, sizeof v.drainage_area);
-    feed(v.slope.data(), sizeof(float) * 3);
   }
   for (const Tri& t : hierarchy.tris) {
     feed(t.v.data(), sizeof(std::uint32_t) * 3);

@@ -322,7 +322,7 @@ SplitResult split_diamond(const Rules& rules, int level, const Vertex& a, const 
   // Only dry land's slopes are read (the smooth surface's corners are all dry). The fan around m
   // is ev2, apex1, ev1, apex2 counter-clockwise (Hierarchy::locate_child), summed from the same
   // corner whichever triangle of the diamond asks, so the same bits.
-  if (!wet(r.m)) r.m.slope = fan_slope(r.m, {&ev2, &apex1, &ev1, &apex2}, rules.radius);
+  if (!wet(r.m)) ground_slope(r.m) = fan_slope(r.m, {&ev2, &apex1, &ev1, &apex2}, rules.radius);
   return r;
 }
 

@@ -4,21 +4,18 @@ namespace planet {
 
 namespace {
 
-// The slope as metres of height per unit of the unit sphere's chords.
-Vec3d scaled_slope(const Vertex& v, double radius) {
-  return {v.slope[0] * radius, v.slope[1] * radius, v.slope[2] * radius};
-}
-
-// The Bézier ordinate next to u on the way to point x (a third of the way, on u's tangent plane).
-double toward(const Vertex& u, const Vec3d& slope_u, const Vec3d& x) {
-  return u.ground + dot(slope_u, sub(x, u.p)) / 3.0;
+// The slope times `scale`; with the radius, metres of height per unit of the unit sphere's chords.
+Vec3d scaled_slope(const Vertex& v, double scale) {
+  const std::array<float, 3>& slope = ground_slope(v);
+  return {slope[0] * scale, slope[1] * scale, slope[2] * scale};
 }
 
 }  // namespace
 
 double edge_cubic(const Vertex& u, const Vertex& v, double s, double radius) {
-  const double e_uv = toward(u, scaled_slope(u, radius), v.p);
-  const double e_vu = toward(v, scaled_slope(v, radius), u.p);
+  // The same arithmetic as clough_tocher's edge ordinates, so the same bits.
+  const double e_uv = u.ground + dot(scaled_slope(u, radius / 3.0), sub(v.p, u.p));
+  const double e_vu = v.ground + dot(scaled_slope(v, radius / 3.0), sub(u.p, v.p));
   const double r = 1.0 - s;
   return r * r * r * u.ground + 3.0 * r * r * s * e_uv + 3.0 * r * s * s * e_vu +
          s * s * s * v.ground;
@@ -26,30 +23,37 @@ double edge_cubic(const Vertex& u, const Vertex& v, double s, double radius) {
 
 double clough_tocher(const std::array<const Vertex*, 3>& corner, const std::array<double, 3>& w,
                      double radius) {
-  const std::array<Vec3d, 3> slope = {scaled_slope(*corner[0], radius),
-                                      scaled_slope(*corner[1], radius),
-                                      scaled_slope(*corner[2], radius)};
-  const Vec3d centroid = scale(add(add(corner[0]->p, corner[1]->p), corner[2]->p), 1.0 / 3.0);
-  // Ordinates shared by the three cubic patches around the centroid.
-  std::array<std::array<double, 3>, 3> edge{};  // edge[i][j]: next to corner i towards j
-  std::array<double, 3> spoke_near{};           // on corner i's spoke, next to the corner
+  // Per corner i, with j = i + 1 and k = i + 2 (mod 3): the edge to the next corner, x_j − x_i,
+  // and the corner's slope scaled by radius / 3 (Bézier ordinates sit a third of the way).
+  std::array<Vec3d, 3> next{}, slope{};
+  std::array<double, 3> f{};
   for (std::size_t i = 0; i < 3; ++i) {
-    for (std::size_t j = 0; j < 3; ++j) {
-      if (i != j) edge[i][j] = toward(*corner[i], slope[i], corner[j]->p);
-    }
-    spoke_near[i] = toward(*corner[i], slope[i], centroid);
+    next[i] = sub(corner[(i + 1) % 3]->p, corner[i]->p);
+    slope[i] = scaled_slope(*corner[i], radius / 3.0);
+    f[i] = corner[i]->ground;
   }
-  // The middle ordinate of the patch on edge (i, j): the one that makes the derivative across the
-  // edge, taken perpendicular to it, linear along it (a function of the edge's ends only).
-  std::array<double, 3> face{};  // face[k]: the patch on the edge opposite corner k
-  for (std::size_t k = 0; k < 3; ++k) {
-    const std::size_t i = (k + 1) % 3, j = (k + 2) % 3;
-    const Vec3d along = sub(corner[i]->p, corner[j]->p);
-    // The foot of the centroid on the edge is alpha·x_i + (1 − alpha)·x_j.
-    const double alpha = dot(sub(centroid, corner[j]->p), along) / dot(along, along);
-    const double at_i = spoke_near[i] - alpha * corner[i]->ground - (1.0 - alpha) * edge[i][j];
-    const double at_j = spoke_near[j] - alpha * edge[j][i] - (1.0 - alpha) * corner[j]->ground;
-    face[k] = 0.5 * (at_i + at_j) + alpha * edge[i][j] + (1.0 - alpha) * edge[j][i];
+  // Ordinates next to corner i: towards the next corner, towards the previous one, and on its
+  // spoke to the centroid (c − x_i is the mean of the two edges from x_i over 3).
+  std::array<double, 3> to_next{}, to_previous{}, spoke_near{};
+  for (std::size_t i = 0; i < 3; ++i) {
+    const double along_next = dot(slope[i], next[i]);
+    const double along_previous = -dot(slope[i], next[(i + 2) % 3]);
+    to_next[i] = f[i] + along_next;
+    to_previous[i] = f[i] + along_previous;
+    spoke_near[i] = f[i] + (along_next + along_previous) / 3.0;
+  }
+  // The middle ordinate of the patch on edge (i, j = i + 1), face[k] with k the opposite corner:
+  // the one that makes the derivative across the edge, taken perpendicular to it, linear along
+  // it (a function of the edge's ends only). The foot of the centroid on the edge is
+  // alpha·x_i + (1 − alpha)·x_j, alpha = (1 + (x_k − x_j)·(x_i − x_j) / |x_i − x_j|²) / 3, where
+  // x_k − x_j = next[j] and x_i − x_j = −next[i].
+  std::array<double, 3> face{};
+  for (std::size_t i = 0; i < 3; ++i) {
+    const std::size_t j = (i + 1) % 3, k = (i + 2) % 3;
+    const double alpha = (1.0 - dot(next[j], next[i]) / dot(next[i], next[i])) / 3.0;
+    const double at_i = spoke_near[i] - alpha * f[i] - (1.0 - alpha) * to_next[i];
+    const double at_j = spoke_near[j] - alpha * to_previous[j] - (1.0 - alpha) * f[j];
+    face[k] = 0.5 * (at_i + at_j) + alpha * to_next[i] + (1.0 - alpha) * to_previous[j];
   }
   // Inner ordinates: C1 across the spokes between the patches.
   std::array<double, 3> spoke_far{};  // on corner i's spoke, next to the centroid
@@ -64,8 +68,8 @@ double clough_tocher(const std::array<const Vertex*, 3>& corner, const std::arra
   if (w[2] < w[k]) k = 2;
   const std::size_t i = (k + 1) % 3, j = (k + 2) % 3;
   const double bi = w[i] - w[k], bj = w[j] - w[k], bc = 3.0 * w[k];
-  return corner[i]->ground * bi * bi * bi + corner[j]->ground * bj * bj * bj +
-         centre * bc * bc * bc + 3.0 * edge[i][j] * bi * bi * bj + 3.0 * edge[j][i] * bi * bj * bj +
+  return f[i] * bi * bi * bi + f[j] * bj * bj * bj + centre * bc * bc * bc +
+         3.0 * to_next[i] * bi * bi * bj + 3.0 * to_previous[j] * bi * bj * bj +
          3.0 * spoke_near[i] * bi * bi * bc + 3.0 * spoke_far[i] * bi * bc * bc +
          3.0 * spoke_near[j] * bj * bj * bc + 3.0 * spoke_far[j] * bj * bc * bc +
          6.0 * face[k] * bi * bj * bc;

@@ -23,8 +23,8 @@ struct Quadratic {
     Vertex v;
     v.p = {x, y, 1.0};
     v.ground = at(x, y);
-    v.slope = {static_cast<float>(gx + 2 * xx * x + xy * y),
-               static_cast<float>(gy + xy * x + 2 * yy * y), 0.0f};
+    ground_slope(v) = {static_cast<float>(gx + 2 * xx * x + xy * y),
+                       static_cast<float>(gy + xy * x + 2 * yy * y), 0.0f};
     return v;
   }
 };
@@ -39,7 +39,7 @@ Vertex random_vertex(std::mt19937& random, double x, double y) {
   Vertex v;
   v.p = {x, y, 1.0};
   v.ground = 100.0 * u(random);
-  v.slope = {static_cast<float>(u(random)), static_cast<float>(u(random)), 0.0f};
+  ground_slope(v) = {static_cast<float>(u(random)), static_cast<float>(u(random)), 0.0f};
   return v;
 }
 
@@ -212,7 +212,7 @@ TEST_F(DryLand, SplitsGiveTheSameVertexFromEitherTriangleOfTheirDiamond) {
     const SplitResult other = h.compute_split(h.tris[static_cast<std::size_t>(t)].nb[0]);
     EXPECT_EQ(one.m.p, other.m.p);
     EXPECT_EQ(one.m.ground, other.m.ground);
-    EXPECT_EQ(one.m.slope, other.m.slope);
+    EXPECT_EQ(one.m.tangent, other.m.tangent);
     dry += wet(one.m) ? 0 : 1;
   }
   EXPECT_GT(dry, 500);

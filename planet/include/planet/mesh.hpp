@@ -45,21 +45,23 @@ enum class EdgeType : std::uint8_t { sea, coast, land, river, drain };
 enum class FaceType : std::uint8_t { sea, land };
 
 struct Vertex {
-  Vec3d p{};                       ///< unit direction from the centre (eq. 1 without the altitude)
-  std::uint64_t seed = 0;          ///< s_v; a split's vertex gets mix(s_ev1 + s_ev2)
-  double ground = 0.0;             ///< a_v, metres relative to the reference surface
-  double water = 0.0;              ///< w_v; the vertex is submerged where w_v > a_v
-  std::array<float, 3> tangent{};  ///< rivers: unit downstream direction (eq. 9's t_v)
+  Vec3d p{};               ///< unit direction from the centre (eq. 1 without the altitude)
+  std::uint64_t seed = 0;  ///< s_v; a split's vertex gets mix(s_ev1 + s_ev2)
+  double ground = 0.0;     ///< a_v, metres relative to the reference surface
+  double water = 0.0;      ///< w_v; the vertex is submerged where w_v > a_v
+  /// A tangent vector at p, one field for two kinds of vertex (a river is never dry land, and
+  /// this keeps the vertex at 72 bytes, which the descent's cache misses feel):
+  /// - rivers: the unit downstream direction (eq. 9's t_v);
+  /// - dry land: the ground's slope (metres per metre), the gradient of the plane that best fits
+  ///   the vertex and its four neighbours when it was made (smooth_surface.hpp: ground_slope).
+  std::array<float, 3> tangent{};
   std::uint8_t flags = kSea;
   float detail = 0.0f;  ///< weight of the fractal detail: 1 on dry land, 0 on water and rivers
   /// Rivers: the area they drain (m²), the base level's land upstream of the vertex and its own
   /// share; a river split's vertex drains what its upstream end does, a new arm's spring 0.
   float drainage_area = 0.0f;
-  /// The ground's slope (metres per metre, tangent at p): the gradient of the plane that best fits
-  /// the vertex and its four neighbours when it was made (smooth_surface.hpp). Dry land between
-  /// vertices follows a C1 cubic through their heights with these slopes.
-  std::array<float, 3> slope{};
 };
+static_assert(sizeof(Vertex) <= 72, "a larger vertex slows the descent (Vertex::tangent)");
 
 /// Water stands on or flows through the vertex: sea, coast, river (springs included), or water
 /// above its ground.

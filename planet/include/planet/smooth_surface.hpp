@@ -1,7 +1,7 @@
 // The smooth ground of dry land (issue 20 item 4): a C1 surface over the mesh instead of flat
-// facets. Every vertex carries the slope of its ground (Vertex::slope), estimated when it is made
-// from the fan of four triangles around it; a triangle whose corners are all dry is filled with
-// the Clough–Tocher cubic of its corners' heights and slopes (Farin 1986: three cubic Bézier
+// facets. Every dry vertex carries the slope of its ground (ground_slope), estimated when it is
+// made from the fan of four triangles around it; a triangle whose corners are all dry is filled
+// with the Clough–Tocher cubic of its corners' heights and slopes (Farin 1986: three cubic Bézier
 // patches around the centroid, the cross-edge derivative linear along each edge). Along an edge
 // that cubic depends on the edge's two ends only, and so does the cross-edge derivative, so two
 // triangles sharing an edge meet with the same height and the same slope.
@@ -16,6 +16,15 @@
 #include "planet/mesh.hpp"
 
 namespace planet {
+
+/// A dry vertex's ground slope (metres per metre, tangent at its position): kept in
+/// Vertex::tangent, which rivers use for their downstream direction.
+inline const std::array<float, 3>& ground_slope(const Vertex& v) {
+  return v.tangent;
+}
+inline std::array<float, 3>& ground_slope(Vertex& v) {
+  return v.tangent;
+}
 
 /// True when every corner is dry land (not wet): the triangles the cubic fills.
 inline bool all_dry(const std::array<const Vertex*, 3>& corner) {
