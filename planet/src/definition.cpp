@@ -54,6 +54,9 @@ const std::vector<NumberField>& number_fields() {
       {"mountain_slope", &PlanetDefinition::mountain_slope, 0.0, 1.0, false},
       {"finest_edge", &PlanetDefinition::finest_edge, 0.01, 100000.0, false},
       {"min_drain_slope", &PlanetDefinition::min_drain_slope, 0.0, 1.0, true, true},
+      {"relief_contrast", &PlanetDefinition::relief_contrast, 0.0, 2.0, false, true},
+      {"belt_wavelength", &PlanetDefinition::belt_wavelength, 100000.0, 40000000.0, false, true},
+      {"belt_height", &PlanetDefinition::belt_height, 0.0, 20000.0, false, true},
   };
   return table;
 }

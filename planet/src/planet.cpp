@@ -78,11 +78,6 @@ Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options,
       geodesy_(definition.radius, definition.flattening),
       id_(planet_id(definition)) {
   const PlanetDefinition& d = definition;
-  const double r = std::pow(d.detail.lacunarity, -d.detail.hurst);
-  const double detail_max = d.detail.amplitude / (1.0 - r);
-  elevation_range_ = {
-      static_cast<float>(std::floor(d.sea_level - d.sea_depth)),
-      static_cast<float>(std::ceil(d.sea_level + d.max_mountain_altitude + detail_max))};
   detail_gain_ = std::pow(d.detail.lacunarity, -d.detail.hurst);
   detail_seed_ = static_cast<std::uint32_t>(mix64(d.seed ^ 0x64657461696cULL));
   // The mesh displaces its vertices with the same spectrum down to finest_edge; the noise only
@@ -96,6 +91,15 @@ Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options,
     first_detail_amplitude_ *= detail_gain_;
     first_detail_frequency_ *= d.detail.lacunarity;
   }
+  // Every octave's amplitude summed, or the noise's own octaves at the largest ruggedness (the
+  // detail's weight) if that is more: by default the first, since the noise carries only the
+  // octaves shorter than finest_edge, about a tenth of a metre.
+  const double detail_max =
+      std::max(d.detail.amplitude, base_->rules.max_ruggedness() * first_detail_amplitude_) /
+      (1.0 - detail_gain_);
+  elevation_range_ = {
+      static_cast<float>(std::floor(d.sea_level - d.sea_depth)),
+      static_cast<float>(std::ceil(d.sea_level + d.max_mountain_altitude + detail_max))};
 }
 
 std::shared_ptr<const Planet> Planet::create(const PlanetDefinition& definition,

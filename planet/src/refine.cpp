@@ -5,6 +5,7 @@
 #include <limits>
 #include <numbers>
 
+#include "gradient_noise.hpp"
 #include "planet/mesh.hpp"
 #include "planet/smooth_surface.hpp"
 
@@ -38,11 +39,44 @@ double Rules::edge_length(int level) const {
   return radius * std::numbers::pi / 2.0 * std::exp2(-0.5 * level);
 }
 
-double Rules::drain_rise(double length) const {
+double Rules::drain_rise(double length, double ruggedness) const {
   // Capped: over a long edge the slope alone would lift a vertex kilometres above its lowest
   // corner, every coarse level would stand far lower than the finer ones under it, and coarse
   // tiles would dip far under the surface their finer children show.
-  return std::min(length * def.min_drain_slope, 0.1 * def.max_mountain_altitude);
+  return std::min(length * def.min_drain_slope * std::max(1.0, ruggedness),
+                  0.1 * def.max_mountain_altitude);
+}
+
+// The regional field's and the belts' seeds, apart from every other stream of the planet's seed.
+constexpr std::uint64_t kRegionSalt = 0x726567696f6eULL, kBeltSalt = 0x62656c7473ULL;
+// ruggedness = exp(contrast · (kRegional·v + kBelt·belt − kShift)): v the regional field in
+// [−1, 1], belt in [0, 1]; the exponent spans [−1.2, 1.8]·contrast.
+constexpr double kRegional = 0.7, kBelt = 1.6, kShift = 0.5;
+
+Rules::Region Rules::region(const Vec3d& p) const {
+  if (def.relief_contrast == 0.0 && def.belt_height == 0.0) return {};
+  // Regions vary at half the belts' spacing; belts follow the zero lines of a second field (the
+  // ridges of 1 − |S|), narrowed by a sixth power.
+  const double regional_scale = 2.0 * radius / def.belt_wavelength;
+  const double belt_scale = radius / def.belt_wavelength;
+  const auto seed_of = [&](std::uint64_t salt) {
+    return static_cast<std::uint32_t>(mix64(def.seed ^ salt));
+  };
+  const double v = std::clamp(detail::gradient3(p[0] * regional_scale, p[1] * regional_scale,
+                                                p[2] * regional_scale, seed_of(kRegionSalt)),
+                              -1.0, 1.0);
+  const double s = std::clamp(detail::gradient3(p[0] * belt_scale, p[1] * belt_scale,
+                                                p[2] * belt_scale, seed_of(kBeltSalt)),
+                              -1.0, 1.0);
+  const double ridge = 1.0 - std::abs(s);
+  const double ridge2 = ridge * ridge;
+  const double belt = ridge2 * ridge2 * ridge2;
+  return {std::exp(def.relief_contrast * (kRegional * v + kBelt * belt - kShift)),
+          def.belt_height * belt};
+}
+
+double Rules::max_ruggedness() const {
+  return std::exp(def.relief_contrast * (kRegional + kBelt - kShift));
 }
 
 double Rules::roughness(double length) const {
@@ -192,7 +226,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       const double high = a_up ? level_a : level_b, low = a_up ? level_b : level_a;
       m.p = place(offset(kLandOffset));
       m.flags = kLand;
-      m.detail = 1.0f;
+      m.detail = static_cast<float>(rules.region(m.p).ruggedness);
       if (dry_diamond) {
         // On the smooth surface, kept within the middle of the drop.
         m.ground =
@@ -249,13 +283,16 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   }
 
   m.flags = kLand;
-  m.detail = 1.0f;
+  // The region scales the fractal's roughness here, eq. 5's mountains and the detail below.
+  const Rules::Region region = rules.region(m.p);
+  const double rugged = region.ruggedness;
+  m.detail = static_cast<float>(rugged);
   // The estimate: eq. 5 for a mountain vertex between rivers, else the surface under the new
   // position (the smooth one among dry corners, eq. 2's weights beside water) displaced by the
   // fractal's roughness at this edge length.
   double estimate = (dry_diamond ? smooth_ground_at(rules, a, b, t, d, m.p)
                                  : wa * a.ground + wt * t.ground + wd * d.ground + wb * b.ground) +
-                    rules.roughness(l_ab) * (2.0 * g1 - 1.0);
+                    rugged * rules.roughness(l_ab) * (2.0 * g1 - 1.0);
   if (wet(a) && wet(b)) {
     int highest = -1;
     for (int i = 0; i < 4; ++i) {
@@ -265,8 +302,19 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       }
     }
     if (highest >= 0) {
-      estimate = corner[highest]->ground + def.mountain_slope * length[highest] * g2;
+      estimate = corner[highest]->ground + rugged * def.mountain_slope * length[highest] * g2;
     }
+  }
+  // Mountain belts, level by level: the part of the belts' uplift at m that the level above does
+  // not carry already (dry corners carry theirs, water none), so that the coarse levels raise
+  // whole ranges and rivers keep their beds through them. The finer levels inherit it.
+  if (l_ab >= rules.uplift_finest_edge() && def.belt_height > 0.0) {
+    const double weight[4] = {wa, wb, wt, wd};
+    double carried = 0.0;
+    for (int i = 0; i < 4; ++i) {
+      if (!wet(*corner[i])) carried += weight[i] * rules.region(corner[i]->p).uplift;
+    }
+    estimate += region.uplift - carried;
   }
   // Eq. 11: above every river or water neighbour by the riverbed rules; eq. 12: within the
   // ground slope of the others. Where they conflict, the river's valley wins.
@@ -294,7 +342,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
     const double level_i = outflow_level(*corner[i]);
     if (level_i < lowest) receiver = i, lowest = level_i;
   }
-  m.ground = std::max(m.ground, lowest + rules.drain_rise(length[receiver]));
+  m.ground = std::max(m.ground, lowest + rules.drain_rise(length[receiver], rugged));
   EdgeType* to[4] = {&r.half_a, &r.half_b, &r.spoke_t, &r.spoke_d};
   *to[receiver] = EdgeType::drain;
   m.water = dry_water(m.water);

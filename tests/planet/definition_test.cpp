@@ -66,6 +66,11 @@ TEST(PlanetDefinition, BadDefinitionsAreRejectedNamingTheField) {
       {R"({"flattening": 0.5})", "/flattening"},
       {R"({"min_drain_slope": 0})", "/min_drain_slope"},
       {R"({"min_drain_slope": 2})", "/min_drain_slope"},
+      {R"({"relief_contrast": -0.5})", "/relief_contrast"},
+      {R"({"relief_contrast": 3})", "/relief_contrast"},
+      {R"({"belt_wavelength": 1000})", "/belt_wavelength"},
+      {R"({"belt_height": "high"})", "/belt_height"},
+      {R"({"belt_height": 50000})", "/belt_height"},
       {R"({"detail": 3})", "/detail"},
       {R"({"detail": {"hurst": 0}})", "/detail/hurst"},
       {R"({"detail": {"octaves": 3}})", "/detail/octaves"},
@@ -135,6 +140,21 @@ TEST(PlanetDefinition, DrainSlopeIsInTheIdOnlyWhenItDiffersFromTheDefault) {
   ASSERT_TRUE(back.ok());
   EXPECT_EQ(back->min_drain_slope, 0.01);
   EXPECT_EQ(planet_id(*back), planet_id(*gentle));
+}
+
+TEST(PlanetDefinition, ReliefFieldsAreInTheIdOnlyWhenTheyDifferFromTheDefaults) {
+  Result<PlanetDefinition> plain = parse_planet_text(R"({"seed": 7})");
+  Result<PlanetDefinition> defaults = parse_planet_text(
+      R"({"seed": 7, "relief_contrast": 1, "belt_wavelength": 4000000, "belt_height": 3000})");
+  Result<PlanetDefinition> flat = parse_planet_text(R"({"seed": 7, "relief_contrast": 0})");
+  ASSERT_TRUE(plain.ok() && defaults.ok() && flat.ok());
+  EXPECT_EQ(planet_id(*defaults), planet_id(*plain));
+  EXPECT_FALSE(canonical_json(*plain).contains("belt_height"));
+  EXPECT_NE(planet_id(*flat), planet_id(*plain));
+  Result<PlanetDefinition> back = parse_planet(canonical_json(*flat));
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(back->relief_contrast, 0.0);
+  EXPECT_EQ(planet_id(*back), planet_id(*flat));
 }
 
 TEST(PlanetDefinition, BadMaterialsAreRejectedNamingTheField) {

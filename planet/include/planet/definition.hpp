@@ -51,6 +51,13 @@ struct PlanetDefinition {
   /// Every new land vertex stands at least this slope above the neighbour it drains to (not in
   /// the paper): the surface has no pits at any level (planet.md "Drainage at every level").
   double min_drain_slope = 0.03;
+  /// Relief regions (planet.md "Relief regions"): how much the ground's roughness varies from
+  /// plains (smooth) to mountain belts (rugged). 0 gives every continent the same roughness.
+  double relief_contrast = 1.0;
+  /// Metres between mountain belts: the wavelength of the field whose ridges they follow.
+  double belt_wavelength = 4000000.0;
+  /// Metres the belts lift dry land on their crests (rivers keep their beds through them).
+  double belt_height = 3000.0;
   int base_faces = 5000;      ///< base shape accuracy; rounded to 8·2^k faces
   double finest_edge = 10.0;  ///< refinement stops at edges this short; detail noise goes on
   DetailParams detail;

@@ -56,7 +56,9 @@ struct Vertex {
   ///   the vertex and its four neighbours when it was made (smooth_surface.hpp: ground_slope).
   std::array<float, 3> tangent{};
   std::uint8_t flags = kSea;
-  float detail = 0.0f;  ///< weight of the fractal detail: 1 on dry land, 0 on water and rivers
+  /// Weight of the fractal detail: the region's ruggedness on dry land (Rules::ruggedness), 0 on
+  /// water and rivers.
+  float detail = 0.0f;
   /// Rivers: the area they drain (m²), the base level's land upstream of the vertex and its own
   /// share; a river split's vertex drains what its upstream end does, a new arm's spring 0.
   float drainage_area = 0.0f;
@@ -103,8 +105,22 @@ struct Rules {
   /// Typical edge length at a level (metres).
   double edge_length(int level) const;
   /// The least rise of a new land vertex over the corner it drains to, for an edge of l metres:
-  /// min_drain_slope·l, capped at a tenth of max_mountain_altitude (refine.cpp).
-  double drain_rise(double length) const;
+  /// min_drain_slope·l, times the region's ruggedness where that is above 1 (rugged land drains
+  /// as steeply as it is rough, or its roughness makes pits), capped at a tenth of
+  /// max_mountain_altitude (refine.cpp).
+  double drain_rise(double length, double ruggedness = 1.0) const;
+  /// The relief region at a direction (planet.md "Relief regions").
+  struct Region {
+    /// Factor of the roughness: below 1 on plains, about 1 on hills, up to max_ruggedness()
+    /// along mountain belts; exactly 1 everywhere when relief_contrast is 0.
+    double ruggedness = 1.0;
+    /// Metres the belts lift dry land here: belt_height on a belt's crest, 0 away from belts.
+    double uplift = 0.0;
+  };
+  Region region(const Vec3d& p) const;
+  double max_ruggedness() const;
+  /// Splits of edges at least this long add the belts' uplift (finer ones inherit it).
+  double uplift_finest_edge() const { return def.belt_wavelength / 80.0; }
 };
 
 /// What splitting a diamond produces, besides the topology.

@@ -1,0 +1,125 @@
+// Relief regions (issue 20 item 3): plains, hills and mountain belts from one seeded field.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "planet/planet.hpp"
+
+namespace planet {
+namespace {
+
+PlanetDefinition with_contrast(double contrast) {
+  PlanetDefinition d;
+  d.seed = 20110627;
+  d.land_fraction = 0.35;
+  d.max_river_altitude = 4500;
+  d.max_mountain_altitude = 8000;
+  d.relief_contrast = contrast;
+  return d;
+}
+
+// Directions spread over the sphere (a Fibonacci lattice).
+std::vector<Vec3d> directions(int n) {
+  std::vector<Vec3d> out;
+  const double golden = std::acos(-1.0) * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / n, r = std::sqrt(1.0 - z * z);
+    out.push_back({r * std::cos(golden * i), r * std::sin(golden * i), z});
+  }
+  return out;
+}
+
+TEST(ReliefRegions, RangeFromSmoothPlainsToRuggedBelts) {
+  const Rules rules(with_contrast(1.0));
+  std::vector<double> rugged;
+  for (const Vec3d& p : directions(20000)) rugged.push_back(rules.region(p).ruggedness);
+  std::sort(rugged.begin(), rugged.end());
+  const double low = rugged[rugged.size() / 20], median = rugged[rugged.size() / 2];
+  const double high = rugged[rugged.size() * 99 / 100];
+  EXPECT_LT(low,
+            0.6);  // plains: well under half the hills' roughness... at least a fifth of the land
+  EXPECT_GT(high, 2.5);  // belts
+  EXPECT_LT(high, rules.max_ruggedness() + 1e-12);
+  EXPECT_GT(median, 0.5);
+  EXPECT_LT(median, 1.5);
+  EXPECT_GE(rugged.front(), 1.0 / rules.max_ruggedness() / 2.0);
+}
+
+TEST(ReliefRegions, ZeroContrastAndHeightGiveEveryContinentTheSameRelief) {
+  PlanetDefinition d = with_contrast(0.0);
+  d.belt_height = 0.0;
+  const Rules rules(d);
+  for (const Vec3d& p : directions(1000)) {
+    EXPECT_EQ(rules.region(p).ruggedness, 1.0);
+    EXPECT_EQ(rules.region(p).uplift, 0.0);
+  }
+  EXPECT_EQ(rules.max_ruggedness(), 1.0);
+}
+
+TEST(ReliefRegions, BeltsLiftTheLandAlongThem) {
+  // The land on belt crests stands higher with the belts' uplift than without (on average by a
+  // fifth of belt_height at least: rivers keep their beds through the belts, so the samples
+  // include their valleys); away from them (uplift under 5 % of it) it hardly moves.
+  PlanetDefinition flat = with_contrast(0.0);
+  flat.belt_height = 0.0;
+  PlanetDefinition lifted = with_contrast(0.0);
+  const auto without = Planet::create(flat), with = Planet::create(lifted);
+  Sampler a(without), b(with);
+  double crest_rise = 0.0, far_rise = 0.0;
+  int crests = 0, far = 0;
+  for (const Vec3d& p : directions(6000)) {
+    const double uplift = with->rules().region(p).uplift;
+    const PointSample s0 = a.at(p, with->rules().mesh_level + 6, 0.0);
+    const PointSample s1 = b.at(p, with->rules().mesh_level + 6, 0.0);
+    if (s0.type != SurfaceType::land || s1.type != SurfaceType::land) continue;
+    if (uplift > 0.8 * lifted.belt_height) crest_rise += s1.ground - s0.ground, ++crests;
+    if (uplift < 0.05 * lifted.belt_height) far_rise += s1.ground - s0.ground, ++far;
+  }
+  ASSERT_GT(crests, 20);
+  ASSERT_GT(far, 200);
+  EXPECT_GT(crest_rise / crests, 0.2 * lifted.belt_height) << far_rise / far;
+  EXPECT_LT(std::abs(far_rise / far), 0.02 * lifted.belt_height) << crest_rise / crests;
+}
+
+TEST(ReliefRegions, BeltsAreRougherThanPlainsOnTheGround) {
+  // The ground's relief between neighbouring samples follows the region: over the most and the
+  // least rugged land points of a coarse scan, the mean absolute step of 200 m samples.
+  const auto planet = Planet::create(with_contrast(1.0));
+  Sampler sampler(planet);
+  struct Point {
+    double rugged;
+    Vec3d p;
+  };
+  std::vector<Point> land;
+  for (const Vec3d& p : directions(4000)) {
+    const PointSample s = sampler.at(p, planet->level_for_spacing(200.0), 0.0);
+    if (s.type == SurfaceType::land) land.push_back({planet->rules().region(p).ruggedness, p});
+  }
+  ASSERT_GT(land.size(), 500u);
+  std::sort(land.begin(), land.end(),
+            [](const Point& a, const Point& b) { return a.rugged < b.rugged; });
+  auto roughness = [&](std::size_t from, std::size_t to) {
+    double sum = 0.0;
+    int n = 0;
+    for (std::size_t i = from; i < to; ++i) {
+      const Vec3d& p = land[i].p;
+      const Vec3d east = normalize(cross({0.0, 0.0, 1.0}, p));
+      double previous = 0.0;
+      for (int k = 0; k <= 16; ++k) {
+        const Vec3d q = normalize(add(p, scale(east, 200.0 * k / planet->definition().radius)));
+        const double g = sampler.at(q, planet->level_for_spacing(200.0), 0.0).ground;
+        if (k > 0) sum += std::abs(g - previous), ++n;
+        previous = g;
+      }
+    }
+    return sum / n;
+  };
+  const std::size_t tenth = land.size() / 10;
+  const double plains = roughness(0, tenth), belts = roughness(land.size() - tenth, land.size());
+  EXPECT_GT(belts, 1.5 * plains) << "belts " << belts << " m, plains " << plains << " m per 200 m";
+}
+
+}  // namespace
+}  // namespace planet
