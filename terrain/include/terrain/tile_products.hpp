@@ -35,8 +35,9 @@ namespace terrain {
 /// 10: erosion keeps its heights in float and its uplift in 16 bits (fifteen bytes per cell, input
 /// included: 2048² in 61.5 MiB); the drainage's water layer weighs nothing on dry land away from
 /// water (no shores painted there). 11: planets' dry land is a C1 surface (Clough–Tocher cubics
-/// over vertex slopes), and splits among dry vertices predict from it; shaded PNGs (colour tiles,
-/// pictures) are deflated by Huffman coding alone.
+/// over vertex slopes), and splits among dry vertices predict from it; planets have relief regions
+/// (ruggedness, mountain belts); shaded PNGs (colour tiles, pictures) are deflated by Huffman
+/// coding alone.
 inline constexpr int kProductGeneration = 11;
 
 enum class TileFormat {
