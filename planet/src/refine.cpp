@@ -93,7 +93,7 @@ namespace {
 // of it, since their wiggle is the continents' outline.
 constexpr double kBaseShapeOffset = 0.5;
 constexpr double kLandOffset = 0.15;
-// A drain split's vertex keeps at least this share of the drop to each end.
+// A drain split's vertex keeps at least this share of its edge's drop to each end.
 constexpr double kDrainMargin = 0.2;
 
 // Unit vector in the tangent plane at p closest to direction v (zero if v is radial).
@@ -234,7 +234,8 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
                        high - kDrainMargin * (high - low));
       } else {  // the split point's share of the drop follows its place, jittered a little
         const double to_up = angle(m.p, up.p), to_down = angle(m.p, down.p);
-        const double f = std::clamp(to_down / (to_up + to_down) + 0.1 * (2.0 * g1 - 1.0), 0.2, 0.8);
+        const double f = std::clamp(to_down / (to_up + to_down) + 0.1 * (2.0 * g1 - 1.0),
+                                    kDrainMargin, 1.0 - kDrainMargin);
         m.ground = low + (high - low) * f;
       }
       m.water = dry_water(0.5 * (a.water + b.water));
