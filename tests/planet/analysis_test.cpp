@@ -7,18 +7,13 @@
 #include <cmath>
 #include <string>
 
+#include "default_definition.hpp"
+
 namespace planet {
 namespace {
 
 const std::shared_ptr<const Planet>& default_planet() {
-  static const std::shared_ptr<const Planet> planet = [] {
-    PlanetDefinition d;
-    d.seed = 20110627;
-    d.land_fraction = 0.35;
-    d.max_river_altitude = 4500;
-    d.max_mountain_altitude = 8000;
-    return Planet::create(d);
-  }();
+  static const std::shared_ptr<const Planet> planet = Planet::create(test::default_definition());
   return planet;
 }
 

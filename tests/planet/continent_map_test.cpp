@@ -9,6 +9,7 @@
 #include <fstream>
 #include <numbers>
 
+#include "default_definition.hpp"
 #include "planet/continent_map.hpp"
 #include "planet/planet.hpp"
 #include "terrain/image_io.hpp"
@@ -63,10 +64,7 @@ const ContinentMap& map() {
 }
 
 PlanetDefinition definition() {
-  PlanetDefinition d;
-  d.seed = 5;
-  d.max_river_altitude = 4500;
-  d.max_mountain_altitude = 8000;
+  PlanetDefinition d = test::default_definition(5);
   d.land_fraction = 0.7;  // ignored with a map
   d.continents = 9;       // ignored with a map
   d.continent_map = map().hash;

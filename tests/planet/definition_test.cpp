@@ -128,33 +128,35 @@ TEST(PlanetDefinition, MaterialIsInTheIdOnlyWhenItDrawsDifferently) {
   EXPECT_EQ(planet_id(*back), planet_id(*arctic));
 }
 
-TEST(PlanetDefinition, DrainSlopeIsInTheIdOnlyWhenItDiffersFromTheDefault) {
+TEST(PlanetDefinition, FieldsAddedLaterAreInTheIdOnlyWhenTheyDifferFromTheDefaults) {
+  // Each with its default and another value: planets defined before the field keep their ids.
+  const struct {
+    const char* name;
+    double PlanetDefinition::*member;
+    double default_value, other;
+  } fields[] = {
+      {"min_drain_slope", &PlanetDefinition::min_drain_slope, 0.03, 0.01},
+      {"relief_contrast", &PlanetDefinition::relief_contrast, 1.0, 0.0},
+      {"belt_wavelength", &PlanetDefinition::belt_wavelength, 4000000.0, 2000000.0},
+      {"belt_height", &PlanetDefinition::belt_height, 3000.0, 0.0},
+  };
   Result<PlanetDefinition> plain = parse_planet_text(R"({"seed": 7})");
-  Result<PlanetDefinition> defaults = parse_planet_text(R"({"seed": 7, "min_drain_slope": 0.03})");
-  Result<PlanetDefinition> gentle = parse_planet_text(R"({"seed": 7, "min_drain_slope": 0.01})");
-  ASSERT_TRUE(plain.ok() && defaults.ok() && gentle.ok());
-  EXPECT_EQ(planet_id(*defaults), planet_id(*plain));
-  EXPECT_FALSE(canonical_json(*plain).contains("min_drain_slope"));
-  EXPECT_NE(planet_id(*gentle), planet_id(*plain));
-  Result<PlanetDefinition> back = parse_planet(canonical_json(*gentle));
-  ASSERT_TRUE(back.ok());
-  EXPECT_EQ(back->min_drain_slope, 0.01);
-  EXPECT_EQ(planet_id(*back), planet_id(*gentle));
-}
-
-TEST(PlanetDefinition, ReliefFieldsAreInTheIdOnlyWhenTheyDifferFromTheDefaults) {
-  Result<PlanetDefinition> plain = parse_planet_text(R"({"seed": 7})");
-  Result<PlanetDefinition> defaults = parse_planet_text(
-      R"({"seed": 7, "relief_contrast": 1, "belt_wavelength": 4000000, "belt_height": 3000})");
-  Result<PlanetDefinition> flat = parse_planet_text(R"({"seed": 7, "relief_contrast": 0})");
-  ASSERT_TRUE(plain.ok() && defaults.ok() && flat.ok());
-  EXPECT_EQ(planet_id(*defaults), planet_id(*plain));
-  EXPECT_FALSE(canonical_json(*plain).contains("belt_height"));
-  EXPECT_NE(planet_id(*flat), planet_id(*plain));
-  Result<PlanetDefinition> back = parse_planet(canonical_json(*flat));
-  ASSERT_TRUE(back.ok());
-  EXPECT_EQ(back->relief_contrast, 0.0);
-  EXPECT_EQ(planet_id(*back), planet_id(*flat));
+  ASSERT_TRUE(plain.ok());
+  for (const auto& field : fields) EXPECT_EQ((*plain).*field.member, field.default_value);
+  for (const auto& field : fields) {
+    SCOPED_TRACE(field.name);
+    Result<PlanetDefinition> defaults =
+        parse_planet({{"seed", 7}, {field.name, field.default_value}});
+    Result<PlanetDefinition> changed = parse_planet({{"seed", 7}, {field.name, field.other}});
+    ASSERT_TRUE(defaults.ok() && changed.ok());
+    EXPECT_EQ(planet_id(*defaults), planet_id(*plain));
+    EXPECT_FALSE(canonical_json(*plain).contains(field.name));
+    EXPECT_NE(planet_id(*changed), planet_id(*plain));
+    Result<PlanetDefinition> back = parse_planet(canonical_json(*changed));
+    ASSERT_TRUE(back.ok());
+    EXPECT_EQ((*back).*field.member, field.other);
+    EXPECT_EQ(planet_id(*back), planet_id(*changed));
+  }
 }
 
 TEST(PlanetDefinition, BadMaterialsAreRejectedNamingTheField) {

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "../terrain/quantized_mesh_dip.hpp"
+#include "default_definition.hpp"
 #include "planet/picture.hpp"
 #include "planet/planet.hpp"
 #include "planet/tiles.hpp"
@@ -27,17 +28,10 @@ namespace {
 using terrain::TileAddress;
 using terrain::TileFormat;
 
-PlanetDefinition definition(std::uint64_t seed, double land = 0.35) {
-  PlanetDefinition d;
-  d.seed = seed;
-  d.land_fraction = land;
-  d.max_river_altitude = 4500;
-  d.max_mountain_altitude = 8000;
-  return d;
-}
+using test::default_definition;
 
 const std::shared_ptr<const Planet>& shared_planet() {
-  static const std::shared_ptr<const Planet> planet = Planet::create(definition(20110627));
+  static const std::shared_ptr<const Planet> planet = Planet::create(default_definition());
   return planet;
 }
 
@@ -63,12 +57,12 @@ std::int32_t leaf_with(const BaseMesh& mesh, std::uint8_t flags) {
 // Base mesh
 
 TEST(PlanetBaseMesh, IsIdenticalAcrossRunsAndThreadCounts) {
-  const PlanetDefinition d = definition(99);
+  const PlanetDefinition d = default_definition(99);
   const std::string one = build_base_mesh(d, {1})->hash();
   EXPECT_EQ(one, build_base_mesh(d, {1})->hash());
   EXPECT_EQ(one, build_base_mesh(d, {2})->hash());
   EXPECT_EQ(one, build_base_mesh(d, {4})->hash());
-  EXPECT_NE(one, build_base_mesh(definition(100), {1})->hash());
+  EXPECT_NE(one, build_base_mesh(default_definition(100), {1})->hash());
 }
 
 TEST(PlanetBaseMesh, HashIsIdenticalInAnotherProcess) {
@@ -88,7 +82,7 @@ TEST(PlanetBaseMesh, HashIsIdenticalInAnotherProcess) {
 TEST(PlanetBaseMesh, LandFractionIsWithinTwoPercentOfTheRequest) {
   for (double land : {0.2, 0.35, 0.5}) {
     for (std::uint64_t seed : {1u, 2u, 3u}) {
-      const auto mesh = build_base_mesh(definition(seed, land));
+      const auto mesh = build_base_mesh(default_definition(seed, land));
       EXPECT_NEAR(mesh->stats.land_fraction, land, 0.02) << "seed " << seed;
     }
   }

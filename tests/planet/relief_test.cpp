@@ -5,17 +5,14 @@
 #include <cmath>
 #include <vector>
 
+#include "default_definition.hpp"
 #include "planet/planet.hpp"
 
 namespace planet {
 namespace {
 
 PlanetDefinition with_contrast(double contrast) {
-  PlanetDefinition d;
-  d.seed = 20110627;
-  d.land_fraction = 0.35;
-  d.max_river_altitude = 4500;
-  d.max_mountain_altitude = 8000;
+  PlanetDefinition d = test::default_definition();
   d.relief_contrast = contrast;
   return d;
 }

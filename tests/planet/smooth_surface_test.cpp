@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "default_definition.hpp"
 #include "planet/planet.hpp"
 #include "planet/smooth_surface.hpp"
 
@@ -110,14 +111,7 @@ TEST(CloughTocher, FanSlopeIsThePlanesGradient) {
 // ~1 km edges, without the fractal detail: the mesh's own surface.
 class DryLand : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
-    PlanetDefinition d;
-    d.seed = 20110627;
-    d.land_fraction = 0.35;
-    d.max_river_altitude = 4500;
-    d.max_mountain_altitude = 8000;
-    planet_ = Planet::create(d);
-  }
+  static void SetUpTestSuite() { planet_ = Planet::create(test::default_definition()); }
   static void TearDownTestSuite() { planet_.reset(); }
 
   int level() const {

@@ -56,7 +56,7 @@ struct Vertex {
   ///   the vertex and its four neighbours when it was made (smooth_surface.hpp: ground_slope).
   std::array<float, 3> tangent{};
   std::uint8_t flags = kSea;
-  /// Weight of the fractal detail: the region's ruggedness on dry land (Rules::ruggedness), 0 on
+  /// Weight of the fractal detail: the region's ruggedness on dry land (Rules::region), 0 on
   /// water and rivers.
   float detail = 0.0f;
   /// Rivers: the area they drain (m²), the base level's land upstream of the vertex and its own
