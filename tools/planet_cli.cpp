@@ -200,6 +200,8 @@ int run(const Args& args) {
                                 {"mouths", s.mouths},
                                 {"river_vertices", s.river_vertices},
                                 {"endorheic", s.endorheic},
+                                {"lakes", s.lakes},
+                                {"closed_lakes", s.closed_lakes},
                                 {"longest_river_km", s.longest_river / 1000.0},
                                 {"largest_drainage_area_km2", s.largest_drainage_area / 1e6}}
                      .dump(2)

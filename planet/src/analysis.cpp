@@ -42,7 +42,7 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
     return Error{"covers too much of the planet (size × cell_size)", "/size"};
   std::vector<float> elevation(static_cast<std::size_t>(n) * static_cast<std::size_t>(n));
   std::vector<std::uint8_t> sea(elevation.size(), 0), wet(elevation.size(), 0);
-  std::int64_t sea_cells = 0, river_cells = 0;
+  std::int64_t sea_cells = 0, river_cells = 0, lake_cells = 0;
   Sampler sampler(planet);
   const double cos_centre = std::cos(options.latitude * degree);
   for (int j = 0; j < n; ++j) {
@@ -63,6 +63,9 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
       } else if (s.type == SurfaceType::river) {
         wet[c] = terrain::kFlowingWater;
         ++river_cells;
+      } else if (s.type == SurfaceType::lake) {
+        wet[c] = terrain::kStandingWater;  // a lake's floor is a depression by nature
+        ++lake_cells;
       }
     }
   }
@@ -77,7 +80,8 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
                   {"cell_size_m", cell},
                   {"level", planet->level_for_spacing(cell)},
                   {"sea_cells", sea_cells},
-                  {"river_cells", river_cells}};
+                  {"river_cells", river_cells},
+                  {"lake_cells", lake_cells}};
   if (options.cell_size == 0.0) out["input"]["zoom"] = options.zoom;
   return out;
 }

@@ -12,19 +12,13 @@
 #include <unordered_map>
 
 #include "gradient_noise.hpp"
+#include "lakes.hpp"
 #include "planet/geodesy.hpp"
 
 namespace planet {
 namespace {
 
 constexpr double kFourPi = 4.0 * std::numbers::pi;
-
-// Area of the spherical triangle (unit sphere): the excess E with tan(E/2) = |det| / (1 + …).
-double spherical_area(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
-  const double num = std::abs(det(a, b, c));
-  const double den = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
-  return 2.0 * std::atan2(num, den);
-}
 
 // Low-frequency field that shapes the continents: growth prefers faces where it is high.
 double shape_field(const Vec3d& p, std::uint32_t seed) {
@@ -546,6 +540,7 @@ std::unique_ptr<BaseMesh> build_base_mesh(const PlanetDefinition& definition,
   }
   for (std::int32_t t : level_tris) h.ensure_partner(t);
   mesh->leaves = std::move(level_tris);
+  place_lakes(*mesh);
   mesh->stats.river_faces = static_cast<int>(mesh->river_faces.size());
   mesh->stats.mesh_faces = static_cast<int>(mesh->leaves.size());
   return mesh;

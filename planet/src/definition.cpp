@@ -57,6 +57,7 @@ const std::vector<NumberField>& number_fields() {
       {"relief_contrast", &PlanetDefinition::relief_contrast, 0.0, 2.0, false, true},
       {"belt_wavelength", &PlanetDefinition::belt_wavelength, 100000.0, 40000000.0, false, true},
       {"belt_height", &PlanetDefinition::belt_height, 0.0, 20000.0, false, true},
+      {"aridity", &PlanetDefinition::aridity, 0.0, 1.0, false, true},
   };
   return table;
 }
@@ -148,6 +149,12 @@ Result<PlanetDefinition> parse_planet(const nlohmann::json& document) {
       d.base_faces = *n;
       continue;
     }
+    if (key == "lakes") {
+      Result<int> n = read_int(value, pointer, 0, kMaxLakes);
+      if (!n) return n.error();
+      d.lakes = *n;
+      continue;
+    }
     if (key == "continent_map") {
       if (!value.is_string() || !valid_image_reference(value.get<std::string>())) {
         return Error{
@@ -225,6 +232,7 @@ nlohmann::json canonical_json(const PlanetDefinition& d) {
   out["continents"] = d.continents;
   out["base_faces"] = d.base_faces;
   static const PlanetDefinition defaults;
+  if (d.lakes != defaults.lakes) out["lakes"] = d.lakes;
   for (const NumberField& f : number_fields()) {
     if (f.written_when_set && d.*(f.member) == defaults.*(f.member)) continue;
     out[f.name] = d.*(f.member);

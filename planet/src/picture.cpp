@@ -38,6 +38,7 @@ std::vector<std::uint8_t> planet_picture_rgb(const std::shared_ptr<const Planet>
   std::vector<double> ground(static_cast<std::size_t>(gw) * gh);
   std::vector<std::uint8_t> type(ground.size());
   std::vector<std::uint8_t> river(ground.size());
+  std::vector<double> water(ground.size());
   // Strokes as wide as hydraulic geometry has channels (w ∝ Q^0.5, Q ∝ drainage area), scaled
   // so the largest river is 3 pixels wide; the thinnest keep a quarter pixel on either side.
   const double pixel = planet->ground_spacing(0, height);
@@ -56,6 +57,7 @@ std::vector<std::uint8_t> planet_picture_rgb(const std::shared_ptr<const Planet>
         const PointSample s = sampler.sample(lat, lon, spacing);
         const std::size_t at = static_cast<std::size_t>(r) * gw + static_cast<std::size_t>(c);
         ground[at] = s.ground;
+        water[at] = s.water;
         river[at] = s.river_distance < half_width(s.river_drainage_area) ? 1 : 0;
         type[at] = static_cast<std::uint8_t>(s.type);
       }
@@ -92,6 +94,9 @@ std::vector<std::uint8_t> planet_picture_rgb(const std::shared_ptr<const Planet>
       if (t == SurfaceType::sea) {
         const double depth = std::clamp((sea - ground[at]) / 5000.0, 0.0, 1.0);
         colour = mixrgb(Rgb{90, 160, 210}, Rgb{15, 35, 90}, std::sqrt(depth));
+      } else if (t == SurfaceType::lake) {
+        const double depth = std::clamp((water[at] - ground[at]) / 500.0, 0.0, 1.0);
+        colour = mixrgb(Rgb{70, 140, 205}, Rgb{25, 60, 140}, std::sqrt(depth));
       } else if (t == SurfaceType::river || river[at] != 0) {
         colour = Rgb{40, 90, 230};
       } else {

@@ -68,6 +68,8 @@ std::string_view surface_name(SurfaceType type) {
       return "land";
     case SurfaceType::river:
       return "river";
+    case SurfaceType::lake:
+      return "lake";
   }
   return "land";
 }
@@ -274,7 +276,7 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
     }
   }
   const double radius = planet_->definition().radius;
-  if (tri.face == FaceType::sea) {
+  if (tri.face != FaceType::land) {  // under the sea or a lake
     out.ground = w[0] * x.ground + w[1] * y.ground + w[2] * z.ground;
   } else if (all_dry({&x, &y, &z})) {
     out.ground = clough_tocher({&x, &y, &z}, w, radius);
@@ -298,16 +300,19 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
   if (weight > 0.0 && octaves > 0.0) out.ground += weight * planet_->detail(p, octaves);
   const terrain::Interval range = planet_->elevation_range();
   out.ground = std::clamp(out.ground, static_cast<double>(range.lo), static_cast<double>(range.hi));
-  // A sea face at exactly sea level is still sea; on land only water above the ground counts.
-  const bool sea_face = tri.face == FaceType::sea;
+  // A sea or lake face at exactly its water level is still water; on land only water above the
+  // ground counts.
+  const bool open_water = tri.face != FaceType::land;
   // On land, water stands only in a river's channel (half as wide as the river is deep over the
   // riverbed slope, §5.3's s_rb): three river vertices around a triangle that no split has yet
   // separated by a ridge do not make a lake.
   const bool submerged =
-      sea_face ? water >= out.ground : water > out.ground && out.river_distance <= channel;
+      open_water ? water >= out.ground : water > out.ground && out.river_distance <= channel;
   if (submerged) {
     out.water = water;
-    out.type = sea_face ? SurfaceType::sea : SurfaceType::river;
+    out.type = tri.face == FaceType::sea    ? SurfaceType::sea
+               : tri.face == FaceType::lake ? SurfaceType::lake
+                                            : SurfaceType::river;
   } else {
     out.water = out.ground;
     const bool coast = ((x.flags | y.flags | z.flags) & kCoast) != 0;

@@ -79,6 +79,22 @@ double Rules::max_ruggedness() const {
   return std::exp(def.relief_contrast * (kRegional + kBelt - kShift));
 }
 
+// The climate's seed, apart from every other stream of the planet's seed; its regional field
+// varies over about a third of the planet's circumference.
+constexpr std::uint64_t kClimateSalt = 0x636c696d617465ULL;
+constexpr double kClimateFrequency = 3.0;
+
+double Rules::dryness(const Vec3d& p) const {
+  // Deserts lie under the subtropical highs (latitudes 15–35°), with a regional field for the
+  // continents' interiors and rain shadows this model does not compute.
+  const double latitude = std::asin(std::clamp(p[2], -1.0, 1.0)) * 180.0 / std::numbers::pi;
+  const double belt = (std::abs(latitude) - 25.0) / 13.0;
+  const double regional = detail::gradient3(
+      p[0] * kClimateFrequency, p[1] * kClimateFrequency, p[2] * kClimateFrequency,
+      static_cast<std::uint32_t>(mix64(def.seed ^ kClimateSalt)));
+  return std::clamp(0.55 * std::exp(-belt * belt) + 0.45 * 0.5 * (1.0 + regional), 0.0, 1.0);
+}
+
 double Rules::roughness(double length) const {
   return def.detail.amplitude * std::pow(length / def.detail.wavelength, def.detail.hurst);
 }
@@ -95,6 +111,9 @@ constexpr double kBaseShapeOffset = 0.5;
 constexpr double kLandOffset = 0.15;
 // A drain split's vertex keeps at least this share of its edge's drop to each end.
 constexpr double kDrainMargin = 0.2;
+// A split under a lake deepens its floor by up to this slope times its edge: the coarse splits
+// make the basin (up to about 300 m under a default planet's lakes), the fine ones its relief.
+constexpr double kLakeFloorSlope = 0.002;
 
 // Unit vector in the tangent plane at p closest to direction v (zero if v is radial).
 std::array<float, 3> tangent_at(const Vec3d& p, const Vec3d& v) {
@@ -130,8 +149,14 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   const double xi = random.uniform(0.25, 0.75), eta = random.uniform(0.25, 0.75);
   const double g1 = random.uniform(), g2 = random.uniform();
   r.half_a = r.half_b = base;
-  r.spoke_t = face_t == FaceType::sea ? EdgeType::sea : EdgeType::land;
-  r.spoke_d = face_d == FaceType::sea ? EdgeType::sea : EdgeType::land;
+  // A face's spoke takes its kind: sea, lake or land.
+  const auto spoke = [](FaceType face) {
+    return face == FaceType::sea    ? EdgeType::sea
+           : face == FaceType::lake ? EdgeType::lake
+                                    : EdgeType::land;
+  };
+  r.spoke_t = spoke(face_t);
+  r.spoke_d = spoke(face_d);
 
   const Vec3d mid = normalize(add(a.p, b.p));
   // Keeps the new vertex where the four new triangles are all positively oriented with room to
@@ -187,6 +212,20 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       m.p = place(eq2);
       m.flags = kCoast;
       m.ground = m.water = def.sea_level;
+      return r;
+    }
+    case EdgeType::shore: {  // a lake's coast: at its water, as wiggly as the sea's
+      m.p = place(eq2);
+      m.flags = kLand | kLake;
+      m.ground = m.water = 0.5 * (a.water + b.water);
+      return r;
+    }
+    case EdgeType::lake: {  // the floor under a lake: below the mean of its corners, deeper
+      m.p = place(offset(kLandOffset));  // the longer its edge (lakes.hpp)
+      m.flags = kLand | kLake;
+      m.water = 0.5 * (a.water + b.water);
+      m.ground = std::min(0.25 * (a.ground + b.ground + t.ground + d.ground), m.water - 1.0) -
+                 kLakeFloorSlope * l_ab * g1;
       return r;
     }
     case EdgeType::river: {
@@ -297,7 +336,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   if (wet(a) && wet(b)) {
     int highest = -1;
     for (int i = 0; i < 4; ++i) {
-      if ((corner[i]->flags & (kRiver | kCoast)) != 0 &&
+      if ((corner[i]->flags & (kRiver | kCoast | kLake)) != 0 &&
           (highest < 0 || corner[i]->ground > corner[highest]->ground)) {
         highest = i;
       }

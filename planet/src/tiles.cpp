@@ -181,7 +181,7 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
           const std::size_t at = static_cast<std::size_t>(r) * static_cast<std::size_t>(ext) +
                                  static_cast<std::size_t>(col);
           ground[at] = sample.ground;
-          wet[at] = sample.type == SurfaceType::sea || sample.type == SurfaceType::river ? 1 : 0;
+          wet[at] = sample.type == SurfaceType::land || sample.type == SurfaceType::coast ? 0 : 1;
         }
       }
     }

@@ -12,6 +12,7 @@
 #include "default_definition.hpp"
 #include "planet/continent_map.hpp"
 #include "planet/planet.hpp"
+#include "river_walk.hpp"
 #include "terrain/image_io.hpp"
 
 namespace planet {
@@ -152,15 +153,8 @@ TEST(PlanetContinentMap, RiversStillFallToAMouthAtSeaLevel) {
     if ((vertices[v].flags & kLand) == 0) continue;
     ASSERT_NE(vertices[v].flags & kRiver, 0) << "every continental vertex is on a river";
     ++rivers;
-    std::size_t at = v;
-    int steps = 0;
-    while (m.downstream[at] >= 0) {
-      const auto next = static_cast<std::size_t>(m.downstream[at]);
-      ASSERT_LT(vertices[next].water, vertices[at].water);
-      ASSERT_LT(vertices[next].ground, vertices[at].ground);
-      ASSERT_LT(++steps, 100000);
-      at = next;
-    }
+    const std::size_t at = test::follow_river(m, v);
+    if ((vertices[at].flags & kLake) != 0) continue;  // or in a lake (PlanetLakes.*)
     ASSERT_NE(vertices[at].flags & kCoast, 0) << "a river ends in the sea";
     EXPECT_EQ(vertices[at].water, definition().sea_level);
     EXPECT_LT(vertices[at].ground, vertices[at].water);

@@ -19,6 +19,7 @@
 #include "planet/picture.hpp"
 #include "planet/planet.hpp"
 #include "planet/tiles.hpp"
+#include "river_walk.hpp"
 #include "terrain/gzip.hpp"
 #include "terrain/quantized_mesh.hpp"
 
@@ -29,6 +30,7 @@ using terrain::TileAddress;
 using terrain::TileFormat;
 
 using test::default_definition;
+using test::follow_river;
 
 const std::shared_ptr<const Planet>& shared_planet() {
   static const std::shared_ptr<const Planet> planet = Planet::create(default_definition());
@@ -96,16 +98,10 @@ TEST(PlanetBaseMesh, EveryRiverFallsMonotonicallyToTheSea) {
     if ((vertices[v].flags & kLand) == 0) continue;
     ASSERT_NE(vertices[v].flags & kRiver, 0) << "every continental vertex is on a river (§4.2)";
     ++rivers;
-    std::size_t at = v;
-    int steps = 0;
-    while (mesh.downstream[at] >= 0) {
-      const auto next = static_cast<std::size_t>(mesh.downstream[at]);
-      ASSERT_LT(vertices[next].water, vertices[at].water) << "water must fall downstream";
-      ASSERT_LT(vertices[next].ground, vertices[at].ground) << "and so must the river bed";
-      ASSERT_LT(++steps, 100000);
-      at = next;
-    }
-    // The end is a mouth on the coast at sea level, or an allowed endorheic basin.
+    const std::size_t at = follow_river(mesh, v);
+    // The end is a mouth on the coast at sea level, a lake (PlanetLakes.* check where lakes
+    // lead), or an allowed endorheic basin.
+    if ((vertices[at].flags & kLake) != 0) continue;
     if ((vertices[at].flags & kCoast) != 0) {
       EXPECT_EQ(vertices[at].water, mesh.rules.def.sea_level);
       EXPECT_LT(vertices[at].ground, vertices[at].water);
@@ -131,8 +127,17 @@ TEST(PlanetBaseMesh, EveryRiverVertexDrainsItsShareAndEverythingUpstream) {
   }
   double largest = 0.0;
   int rivers = 0;
+  // Lakes give their vertices their outlet's area (PlanetLakes.*): the network's sums hold where
+  // no lake vertex drains in.
+  std::vector<bool> lake_inflow(count, false);
+  for (std::size_t v = 0; v < count; ++v) {
+    if (mesh.downstream[v] >= 0 && (vertices[v].flags & kLake) != 0) {
+      lake_inflow[static_cast<std::size_t>(mesh.downstream[v])] = true;
+    }
+  }
   for (std::size_t v = 0; v < count; ++v) {
     if ((vertices[v].flags & kRiver) == 0 || !(vertices[v].water > vertices[v].ground)) continue;
+    if ((vertices[v].flags & kLake) != 0 || lake_inflow[v]) continue;
     ++rivers;
     EXPECT_NEAR(vertices[v].drainage_area, share + inflow[v], 1e-6 * (share + inflow[v])) << v;
     largest = std::max(largest, static_cast<double>(vertices[v].drainage_area));
@@ -291,6 +296,7 @@ TEST(PlanetRefinement, RefinedRiversStillDrainDownhill) {
   ASSERT_GT(lowest.size(), 20u);
   // Downstream along every refined river edge, the drainage area never shrinks.
   for (const Tri& t : h.tris) {
+    if (t.level < mesh.rules.mesh_level) continue;
     for (std::size_t k = 0; k < 3; ++k) {
       if (t.edge[k] != EdgeType::river) continue;
       const Vertex& a = h.vertices[t.v[k]];
@@ -303,7 +309,7 @@ TEST(PlanetRefinement, RefinedRiversStillDrainDownhill) {
   int checked = 0;
   for (auto [v, low] : lowest) {
     const Vertex& x = h.vertices[v];
-    if ((x.flags & kCoast) != 0) continue;
+    if ((x.flags & (kCoast | kLake)) != 0) continue;  // a mouth into the sea or a lake
     EXPECT_LT(low, x.water) << "river vertex " << v << " has no way down";
     ++checked;
   }
@@ -489,10 +495,25 @@ terrain::HeightTile corners(PlanetTiles& tiles, TileAddress a, int grid = 65) {
 
 TEST(PlanetTiles, AreIdenticalInAnyOrderThreadAndProcess) {
   const auto& world = shared_planet();
-  const std::vector<std::pair<TileAddress, TileFormat>> jobs = {
+  std::vector<std::pair<TileAddress, TileFormat>> jobs = {
       {{0, 0, 0}, TileFormat::terrain_rgb},      {{3, 9, 5}, TileFormat::gray16},
       {{6, 70, 40}, TileFormat::quantized_mesh}, {{9, 600, 300}, TileFormat::terrarium},
       {{12, 4500, 2300}, TileFormat::glb},       {{3, 10, 5}, TileFormat::normal_map}};
+  // And a tile over a lake's shore (PlanetLakes.*), with its water mask.
+  const BaseMesh& mesh = world->base_mesh();
+  for (std::int32_t t : mesh.leaves) {
+    if (mesh.hierarchy.tris[static_cast<std::size_t>(t)].face != FaceType::lake) continue;
+    const Vec3d shore =
+        mesh.hierarchy.vertices[mesh.hierarchy.tris[static_cast<std::size_t>(t)].v[2]].p;
+    double lat = 0.0, lon = 0.0;
+    world->geodesy().direction_to_geographic(shore, lat, lon);
+    const double size = 180.0 / (1 << 10);
+    jobs.push_back({{10, static_cast<std::int64_t>((lon + 180.0) / size),
+                     static_cast<std::int64_t>((lat + 90.0) / size)},
+                    TileFormat::quantized_mesh});
+    break;
+  }
+  ASSERT_EQ(jobs.size(), 7u);
   std::vector<std::vector<std::uint8_t>> forward;
   {
     PlanetTiles tiles(world);

@@ -31,6 +31,8 @@ struct BaseMeshStats {
   int mouths = 0;
   int river_vertices = 0;              ///< continental vertices on a river (all of them, §4.2)
   int endorheic = 0;                   ///< river ends that could not reach the sea
+  int lakes = 0;                       ///< lakes (base_mesh.cpp "Lakes")
+  int closed_lakes = 0;                ///< of those, kept without an outflow by the climate
   double longest_river = 0.0;          ///< metres along the base network
   double largest_drainage_area = 0.0;  ///< m², the largest river's at its mouth
 };

@@ -30,6 +30,9 @@ struct DetailParams {
   double lacunarity = 2.2;      ///< r: octave k has wavelength / r^k
 };
 
+/// The most lakes a definition may ask for (each is placed once when the planet is built).
+inline constexpr int kMaxLakes = 1000;
+
 struct PlanetDefinition {
   std::uint64_t seed = 1;
   double radius = 6371000.0;             ///< r (Table 2: 6371 km); the equatorial radius
@@ -58,6 +61,12 @@ struct PlanetDefinition {
   double belt_wavelength = 4000000.0;
   /// Metres the belts lift dry land on their crests (rivers keep their beds through them).
   double belt_height = 3000.0;
+  /// Lakes (planet.md "Lakes"): how many the base mesh holds, each on a river at its outlet's
+  /// level; 0 for none.
+  int lakes = 24;
+  /// The climate's share of dry land, 0 to 1: a lake whose climate is drier than 1 − aridity
+  /// loses more water than it gains and is kept closed, below its rim, with no outflow.
+  double aridity = 0.35;
   int base_faces = 5000;      ///< base shape accuracy; rounded to 8·2^k faces
   double finest_edge = 10.0;  ///< refinement stops at edges this short; detail noise goes on
   DetailParams detail;
@@ -83,8 +92,9 @@ Result<PlanetDefinition> parse_planet_text(std::string_view text);
 /// Reads a definition file.
 Result<PlanetDefinition> load_planet_file(const std::string& path);
 
-/// Every field explicit, except continent_map, written only when set, and material and
-/// min_drain_slope, written only when they differ from the defaults (so planets defined before
+/// Every field explicit, except continent_map, written only when set, and material,
+/// min_drain_slope, the relief fields, lakes and aridity, written only when they differ from the
+/// defaults (so planets defined before
 /// those fields existed keep their ids): parse_planet(canonical_json(d)) gives d back.
 nlohmann::json canonical_json(const PlanetDefinition& definition);
 /// The canonical text: keys sorted, no whitespace, shortest round-trip numbers.

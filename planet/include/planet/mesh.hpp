@@ -21,6 +21,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -37,12 +38,17 @@ enum VertexFlags : std::uint8_t {
   kCoast = 2,  ///< on the coastline (ground at sea level, or a river mouth below it)
   kLand = 4,   ///< continental
   kRiver = 8,  ///< on a river: water above the ground (a spring: water equals ground)
+  /// On a lake (base_mesh.hpp "Lakes"): its shore (ground at the lake's level, or its outlet, a
+  /// river leaving below it) or its floor; the water stands at the lake's level.
+  kLake = 16,
 };
 
 /// `drain`: a land edge its higher end drains along (to the lower end), so that every dry
 /// vertex has a strictly lower neighbour at every level and the surface has no pits.
-enum class EdgeType : std::uint8_t { sea, coast, land, river, drain };
-enum class FaceType : std::uint8_t { sea, land };
+/// `lake`: between two lake faces; `shore`: between a lake face and a land face (a lake's coast).
+enum class EdgeType : std::uint8_t { sea, coast, land, river, drain, lake, shore };
+/// `lake`: water stands over the whole face at its corners' level (a lake on a continent).
+enum class FaceType : std::uint8_t { sea, land, lake };
 
 struct Vertex {
   Vec3d p{};               ///< unit direction from the centre (eq. 1 without the altitude)
@@ -68,7 +74,7 @@ static_assert(sizeof(Vertex) <= 72, "a larger vertex slows the descent (Vertex::
 /// Water stands on or flows through the vertex: sea, coast, river (springs included), or water
 /// above its ground.
 inline bool wet(const Vertex& v) {
-  return (v.flags & (kRiver | kCoast | kSea)) != 0 || v.water > v.ground;
+  return (v.flags & (kRiver | kCoast | kSea | kLake)) != 0 || v.water > v.ground;
 }
 
 /// The height water leaves a vertex at: its surface where wet, else its ground.
@@ -119,6 +125,10 @@ struct Rules {
   };
   Region region(const Vec3d& p) const;
   double max_ruggedness() const;
+  /// How dry the climate is at a direction, 0 (wet) to 1 (dry): the subtropical belts of high
+  /// pressure around 25° of latitude and a seeded regional field (planet.md "Lakes"). A lake is
+  /// closed where dryness ≥ 1 − aridity.
+  double dryness(const Vec3d& p) const;
   /// Splits of edges at least this long add the belts' uplift (finer ones inherit it).
   double uplift_finest_edge() const { return def.belt_wavelength / 80.0; }
 };
@@ -224,6 +234,11 @@ inline double det(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
   return dot(cross(a, b), c);
 }
 Vec3d normalize(const Vec3d& a);
+/// Area of the spherical triangle (a, b, c) on the unit sphere: the excess E, with
+/// tan(E/2) = |det| / (1 + a·b + b·c + c·a).
+inline double spherical_area(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  return 2.0 * std::atan2(std::abs(det(a, b, c)), 1.0 + dot(a, b) + dot(b, c) + dot(c, a));
+}
 /// Angle in radians between two unit vectors (stable for tiny angles).
 double angle(const Vec3d& a, const Vec3d& b);
 

@@ -22,8 +22,8 @@
 
 namespace planet {
 
-/// What lies at a point (the `type` of sample?lat=&lon=).
-enum class SurfaceType { sea, coast, land, river };
+/// What lies at a point (the `type` of sample?lat=&lon=). `lake`: under a lake's water.
+enum class SurfaceType { sea, coast, land, river, lake };
 std::string_view surface_name(SurfaceType type);
 
 struct PointSample {

@@ -37,8 +37,8 @@ namespace terrain {
 /// water (no shores painted there). 11: planets' dry land is a C1 surface (Clough–Tocher cubics
 /// over vertex slopes), and splits among dry vertices predict from it; planets have relief regions
 /// (ruggedness, mountain belts); shaded PNGs (colour tiles, pictures) are deflated by Huffman
-/// coding alone.
-inline constexpr int kProductGeneration = 11;
+/// coding alone. 12: planets have lakes, open and closed (lake faces, a `lake` surface type).
+inline constexpr int kProductGeneration = 12;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
