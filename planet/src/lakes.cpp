@@ -31,11 +31,13 @@ class LakePlacer {
   explicit LakePlacer(BaseMesh& mesh)
       : mesh_(mesh), h_(mesh.hierarchy), def_(mesh.rules.def), taken_(h_.vertices.size(), 0) {
     neighbours_.resize(h_.vertices.size());
+    incident_.resize(h_.vertices.size());
     for (std::int32_t t : mesh_.leaves) {
       const Tri& tri = h_.tris[static_cast<std::size_t>(t)];
       for (std::size_t k = 0; k < 3; ++k) {
         neighbours_[tri.v[k]].push_back(tri.v[(k + 1) % 3]);
         neighbours_[tri.v[(k + 1) % 3]].push_back(tri.v[k]);
+        incident_[tri.v[k]].push_back(t);
       }
     }
     for (auto& list : neighbours_) {
@@ -94,8 +96,7 @@ class LakePlacer {
   // The river edge leaving c towards its lowest river neighbour, if any.
   bool outflow_of(std::uint32_t c, std::uint32_t& down, Side& side) {
     bool found = false;
-    for (std::int32_t t :
-         mesh_.leaves) {  // only for the few lakes: a scan is simpler than an index
+    for (std::int32_t t : incident_[c]) {
       const Tri& x = tri(t);
       for (int k = 0; k < 3; ++k) {
         const std::uint32_t u = x.v[static_cast<std::size_t>(k)];
@@ -207,6 +208,7 @@ class LakePlacer {
   const PlanetDefinition& def_;
   std::vector<std::uint8_t> taken_;  // a lake's vertices and their neighbours
   std::vector<std::vector<std::uint32_t>> neighbours_;
+  std::vector<std::vector<std::int32_t>> incident_;  // the leaves around each vertex
 };
 
 }  // namespace
