@@ -460,7 +460,8 @@ class Classifier {
       if (kind_[v] != kSea) continue;
       Vertex& x = vertex(v);
       const double d = std::max(hops[v], 1) * hop_length;
-      const double depth = 150.0 + (def_.sea_depth - 150.0) * (1.0 - std::exp(-d / 1.0e6)) *
+      x.drainage_area = static_cast<float>(d);  // the distance to the coast (refine.cpp: shelves)
+      const double depth = 150.0 + (def_.sea_depth - 150.0) * (1.0 - std::exp(-d / 4.0e5)) *
                                        (0.75 + 0.25 * random_.uniform());
       x.flags = kSea;
       x.water = sea;

@@ -58,6 +58,8 @@ const std::vector<NumberField>& number_fields() {
       {"belt_wavelength", &PlanetDefinition::belt_wavelength, 100000.0, 40000000.0, false, true},
       {"belt_height", &PlanetDefinition::belt_height, 0.0, 20000.0, false, true},
       {"aridity", &PlanetDefinition::aridity, 0.0, 1.0, false, true},
+      {"shelf_width", &PlanetDefinition::shelf_width, 0.0, 1000000.0, false, true},
+      {"shelf_depth", &PlanetDefinition::shelf_depth, 1.0, 2000.0, false, true},
   };
   return table;
 }

@@ -165,7 +165,7 @@ double Planet::ground_spacing(int z, int cells) const {
 double Planet::relief_between_samples(double spacing) const {
   const Rules& r = rules();
   const double edge = r.edge_length(level_for_spacing(spacing));
-  return r.roughness(edge) + r.drain_rise(edge);
+  return r.roughness(edge) + r.drain_rise(edge) + r.shelf_break_relief(edge);
 }
 
 terrain::Interval Planet::elevation_range() const {

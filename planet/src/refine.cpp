@@ -95,6 +95,13 @@ double Rules::dryness(const Vec3d& p) const {
   return std::clamp(0.55 * std::exp(-belt * belt) + 0.45 * 0.5 * (1.0 + regional), 0.0, 1.0);
 }
 
+// The continental slope beyond a shelf's edge (4 %, about 2.3°: continental slopes are 1–5°).
+constexpr double kContinentalSlope = 0.04;
+
+double Rules::shelf_break_relief(double length) const {
+  return def.shelf_width > 0.0 ? 0.25 * kContinentalSlope * length : 0.0;
+}
+
 double Rules::roughness(double length) const {
   return def.detail.amplitude * std::pow(length / def.detail.wavelength, def.detail.hurst);
 }
@@ -111,6 +118,8 @@ constexpr double kBaseShapeOffset = 0.5;
 constexpr double kLandOffset = 0.15;
 // A drain split's vertex keeps at least this share of its edge's drop to each end.
 constexpr double kDrainMargin = 0.2;
+// The slope ends this share of sea_depth down, on the ocean floor of the base mesh's sea.
+constexpr double kAbyssShare = 0.6;
 // A split under a lake deepens its floor by up to this slope times its edge: the coarse splits
 // make the basin (up to about 300 m under a default planet's lakes), the fine ones its relief.
 constexpr double kLakeFloorSlope = 0.002;
@@ -205,6 +214,27 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       m.flags = kSea;
       m.water = def.sea_level;
       m.ground = 0.5 * (a.ground + b.ground) + 0.3 * rules.roughness(l_ab) * (2.0 * g1 - 1.0);
+      // Continental shelves: sea vertices carry their distance to the coast (Vertex::
+      // drainage_area), through the nearest corner. Within shelf_width the floor is no deeper
+      // than the shelf (half of shelf_depth at the coast, all of it at its edge); beyond, the
+      // continental slope keeps it at least kContinentalSlope × the distance past the edge deeper,
+      // down to the ocean floor (kAbyssShare of sea_depth), below which it is free.
+      double coast = std::numeric_limits<double>::infinity();
+      for (const Vertex* c : {&a, &b, &t, &d}) {
+        const double from = (c->flags & kSea) != 0 ? static_cast<double>(c->drainage_area) : 0.0;
+        coast = std::min(coast, from + rules.radius * angle(m.p, c->p));
+      }
+      m.drainage_area = static_cast<float>(coast);
+      if (def.shelf_width > 0.0) {
+        const double shelf = def.sea_level - def.shelf_depth;
+        m.ground =
+            coast < def.shelf_width
+                ? std::max(m.ground,
+                           def.sea_level - def.shelf_depth * (0.5 + 0.5 * coast / def.shelf_width))
+                : std::min(m.ground, std::max(shelf - kContinentalSlope * (coast - def.shelf_width),
+                                              def.sea_level - kAbyssShare * def.sea_depth) +
+                                         0.3 * rules.roughness(l_ab) * (2.0 * g2 - 1.0));
+      }
       m.ground = std::clamp(m.ground, def.sea_level - def.sea_depth, def.sea_level - 1.0);
       return r;
     }

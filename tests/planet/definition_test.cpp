@@ -76,6 +76,8 @@ TEST(PlanetDefinition, BadDefinitionsAreRejectedNamingTheField) {
       {R"({"lakes": 100000})", "/lakes"},
       {R"({"aridity": 1.5})", "/aridity"},
       {R"({"aridity": "dry"})", "/aridity"},
+      {R"({"shelf_width": -1})", "/shelf_width"},
+      {R"({"shelf_depth": 0})", "/shelf_depth"},
       {R"({"detail": 3})", "/detail"},
       {R"({"detail": {"hurst": 0}})", "/detail/hurst"},
       {R"({"detail": {"octaves": 3}})", "/detail/octaves"},
@@ -145,6 +147,8 @@ TEST(PlanetDefinition, FieldsAddedLaterAreInTheIdOnlyWhenTheyDifferFromTheDefaul
       {"belt_height", 3000.0, 0.0},
       {"lakes", 24, 0},
       {"aridity", 0.35, 1.0},
+      {"shelf_width", 80000.0, 0.0},
+      {"shelf_depth", 130.0, 200.0},
   };
   Result<PlanetDefinition> plain = parse_planet_text(R"({"seed": 7})");
   ASSERT_TRUE(plain.ok());

@@ -61,6 +61,10 @@ struct PlanetDefinition {
   double belt_wavelength = 4000000.0;
   /// Metres the belts lift dry land on their crests (rivers keep their beds through them).
   double belt_height = 3000.0;
+  /// Continental shelves (planet.md "Continental shelves"): the sea floor within shelf_width of
+  /// a coast lies no deeper than shelf_depth (half of it at the coast); 0 for none.
+  double shelf_width = 80000.0;
+  double shelf_depth = 130.0;
   /// Lakes (planet.md "Lakes"): how many the base mesh holds, each on a river at its outlet's
   /// level; 0 for none.
   int lakes = 24;

@@ -67,6 +67,7 @@ struct Vertex {
   float detail = 0.0f;
   /// Rivers: the area they drain (m²), the base level's land upstream of the vertex and its own
   /// share; a river split's vertex drains what its upstream end does, a new arm's spring 0.
+  /// Sea: metres to the nearest coast along the mesh (what the continental shelves follow).
   float drainage_area = 0.0f;
 };
 static_assert(sizeof(Vertex) <= 72, "a larger vertex slows the descent (Vertex::tangent)");
@@ -115,6 +116,10 @@ struct Rules {
   /// as steeply as it is rough, or its roughness makes pits), capped at a tenth of
   /// max_mountain_altitude (refine.cpp).
   double drain_rise(double length, double ruggedness = 1.0) const;
+  /// How far the sea floor rises above the chord between two points l metres apart across a
+  /// shelf's edge, where the continental slope begins: a quarter of the slope times l (0 without
+  /// shelves).
+  double shelf_break_relief(double length) const;
   /// The relief region at a direction (planet.md "Relief regions").
   struct Region {
     /// Factor of the roughness: below 1 on plains, about 1 on hills, up to max_ruggedness()

@@ -37,7 +37,8 @@ namespace terrain {
 /// water (no shores painted there). 11: planets' dry land is a C1 surface (Clough–Tocher cubics
 /// over vertex slopes), and splits among dry vertices predict from it; planets have relief regions
 /// (ruggedness, mountain belts); shaded PNGs (colour tiles, pictures) are deflated by Huffman
-/// coding alone. 12: planets have lakes, open and closed (lake faces, a `lake` surface type).
+/// coding alone. 12: planets have lakes, open and closed (lake faces, a `lake` surface type), and
+/// continental shelves and slopes on a deeper ocean floor.
 inline constexpr int kProductGeneration = 12;
 
 enum class TileFormat {
