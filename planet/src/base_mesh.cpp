@@ -18,8 +18,6 @@
 namespace planet {
 namespace {
 
-constexpr double kFourPi = 4.0 * std::numbers::pi;
-
 // Low-frequency field that shapes the continents: growth prefers faces where it is high.
 double shape_field(const Vec3d& p, std::uint32_t seed) {
   double sum = 0.0, amplitude = 1.0, frequency = 1.5;

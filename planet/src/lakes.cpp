@@ -4,7 +4,6 @@
 #include <array>
 #include <cstdint>
 #include <limits>
-#include <numbers>
 #include <tuple>
 #include <vector>
 
@@ -13,7 +12,6 @@ namespace {
 
 // The lakes' order, apart from every other stream of the planet's seed.
 constexpr std::uint64_t kLakeSalt = 0x6c616b6573ULL;
-constexpr double kFourPi = 4.0 * std::numbers::pi;
 
 // A leaf triangle's side: the edge from v[side] to v[side + 1].
 struct Side {
@@ -146,12 +144,16 @@ class LakePlacer {
     Side outflow{};
     if (!outflow_of(c, down, outflow)) return;
     const bool closed = mesh_.rules.dryness(vertex(c).p) >= 1.0 - def_.aridity;
-    // The rim: every neighbour outside the lake (but an open lake's outflow) stands above it.
+    // The neighbours outside the lake but an open lake's outflow: the rim, which must stand
+    // above the lake, and the rivers that will end in it (those that flowed past an apex turn
+    // into it), none draining more than the outlet, whose area the lake takes.
+    const float area = vertex(c).drainage_area;
     double rim = std::numeric_limits<double>::infinity();
     for (std::uint32_t v : lake) {
       for (std::uint32_t q : neighbours_[v]) {
         if (std::find(lake.begin(), lake.end(), q) != lake.end() || (!closed && q == down))
           continue;
+        if ((vertex(q).flags & kRiver) != 0 && vertex(q).drainage_area > area) return;
         rim = std::min(rim, outflow_level(vertex(q)));
       }
     }
@@ -162,18 +164,6 @@ class LakePlacer {
     if (!(rim > level)) return;
     for (std::uint32_t v : {r, x, y}) {
       if (outflow_level(vertex(v)) < level) return;  // a lake only lowers where water leaves
-    }
-    // Rivers that reach the lake end in it (those that flowed past an apex turn into it), so
-    // the lake drains what its outlet does, at least as much as any of them.
-    const float area = vertex(c).drainage_area;
-    for (std::uint32_t v : lake) {
-      for (std::uint32_t q : neighbours_[v]) {
-        if (std::find(lake.begin(), lake.end(), q) == lake.end() &&
-            (vertex(q).flags & kRiver) != 0 && (closed || q != down) &&
-            vertex(q).drainage_area > area) {
-          return;
-        }
-      }
     }
 
     t.face = FaceType::lake;

@@ -225,15 +225,13 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
         coast = std::min(coast, from + rules.radius * angle(m.p, c->p));
       }
       m.drainage_area = static_cast<float>(coast);
-      if (def.shelf_width > 0.0) {
-        const double shelf = def.sea_level - def.shelf_depth;
-        m.ground =
-            coast < def.shelf_width
-                ? std::max(m.ground,
-                           def.sea_level - def.shelf_depth * (0.5 + 0.5 * coast / def.shelf_width))
-                : std::min(m.ground, std::max(shelf - kContinentalSlope * (coast - def.shelf_width),
-                                              def.sea_level - kAbyssShare * def.sea_depth) +
-                                         0.3 * rules.roughness(l_ab) * (2.0 * g2 - 1.0));
+      if (def.shelf_width > 0.0 && coast < def.shelf_width) {
+        const double shelf = def.shelf_depth * (0.5 + 0.5 * coast / def.shelf_width);
+        m.ground = std::max(m.ground, def.sea_level - shelf);
+      } else if (def.shelf_width > 0.0) {
+        const double slope = def.shelf_depth + kContinentalSlope * (coast - def.shelf_width);
+        const double deepest = def.sea_level - std::min(slope, kAbyssShare * def.sea_depth);
+        m.ground = std::min(m.ground, deepest + 0.3 * rules.roughness(l_ab) * (2.0 * g2 - 1.0));
       }
       m.ground = std::clamp(m.ground, def.sea_level - def.sea_depth, def.sea_level - 1.0);
       return r;

@@ -1,10 +1,13 @@
 // The definition of config/planets/default.json, built in code, for tests that need the default
-// planet (or the same definition with another seed or land fraction) without reading the file.
+// planet (or the same definition with another seed or land fraction) without reading the file,
+// and that planet itself, built once per test binary.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 
 #include "planet/definition.hpp"
+#include "planet/planet.hpp"
 
 namespace planet::test {
 
@@ -17,6 +20,12 @@ inline PlanetDefinition default_definition(std::uint64_t seed = kDefaultSeed, do
   d.max_river_altitude = 4500;
   d.max_mountain_altitude = 8000;
   return d;
+}
+
+/// The default planet, built once for every test of the binary that asks.
+inline const std::shared_ptr<const Planet>& default_planet() {
+  static const std::shared_ptr<const Planet> planet = Planet::create(default_definition());
+  return planet;
 }
 
 }  // namespace planet::test

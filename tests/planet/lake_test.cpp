@@ -19,8 +19,7 @@ namespace {
 using test::default_definition;
 
 const std::shared_ptr<const Planet>& shared_planet() {
-  static const std::shared_ptr<const Planet> planet = Planet::create(default_definition());
-  return planet;
+  return test::default_planet();
 }
 
 // A lake of the base mesh: its two triangles and its water level.

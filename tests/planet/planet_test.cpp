@@ -33,8 +33,7 @@ using test::default_definition;
 using test::follow_river;
 
 const std::shared_ptr<const Planet>& shared_planet() {
-  static const std::shared_ptr<const Planet> planet = Planet::create(default_definition());
-  return planet;
+  return test::default_planet();
 }
 
 // A direction inside the base triangle t (its centroid).

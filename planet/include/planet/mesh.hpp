@@ -23,6 +23,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -239,6 +240,8 @@ inline double det(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
   return dot(cross(a, b), c);
 }
 Vec3d normalize(const Vec3d& a);
+/// The unit sphere's area (steradians).
+inline constexpr double kFourPi = 4.0 * std::numbers::pi;
 /// Area of the spherical triangle (a, b, c) on the unit sphere: the excess E, with
 /// tan(E/2) = |det| / (1 + a·b + b·c + c·a).
 inline double spherical_area(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
