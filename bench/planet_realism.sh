@@ -18,11 +18,14 @@ seeded() {
   python3 -c "import json,sys; d=json.load(open('config/planets/default.json')); d['seed']=int(sys.argv[1]); print(json.dumps(d))" "$1" > "$work/seed-$1.json"
   echo "$work/seed-$1.json"
 }
-planets=("config/planets/default.json 5 -175" "$(seeded 7) 5 -165" "$(seeded 42) 5 -175")
+# Then three squares of the default planet's relief regions (generation 13): a plateau's top, its
+# escarpment and a coastal plain about 45 km from the sea.
+planets=("default config/planets/default.json 5 -175" "seed-7 $(seeded 7) 5 -165"
+  "seed-42 $(seeded 42) 5 -175" "plateau config/planets/default.json -35 110"
+  "escarpment config/planets/default.json -32 105" "coastal config/planets/default.json -35 98.6")
 printf '%-12s %4s %8s %8s %8s %7s %6s %6s %8s\n' planet zoom cell_m pits_% closed_% theta r2 R_b seconds
 for entry in "${planets[@]}"; do
-  read -r definition lat lon <<< "$entry"
-  name="$(basename "$definition" .json)"
+  read -r name definition lat lon <<< "$entry"
   for zoom in 8 11 14; do
     start=$(date +%s.%N)
     "$planet" analyze "$definition" "$lat" "$lon" --zoom "$zoom" > "$work/out.json"

@@ -7,7 +7,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
+#include <limits>
 #include <numbers>
+#include <queue>
 #include <thread>
 #include <unordered_map>
 
@@ -442,22 +445,13 @@ class Classifier {
       }
       x.tangent = tangent_towards(x.p, direction);
     }
-    // Sea floor: deeper with the distance from the coast (breadth-first over sea vertices).
-    std::vector<int> hops(nv, -1);
-    std::vector<std::uint32_t> queue;
-    for (std::uint32_t v = 0; v < nv; ++v) {
-      if (kind_[v] != kSea) hops[v] = 0, queue.push_back(v);
-    }
-    for (std::size_t i = 0; i < queue.size(); ++i) {
-      for (auto [w, e] : neighbours_[queue[i]]) {
-        if (hops[w] < 0) hops[w] = hops[queue[i]] + 1, queue.push_back(w);
-      }
-    }
-    const double hop_length = mesh_.rules.edge_length(mesh_.rules.base_level);
+    // Sea floor: deeper with the distance from the coast (along sea edges).
+    const std::vector<double> offshore = distances_over(
+        [&](std::uint32_t v) { return kind_[v] != kSea; }, [](std::uint32_t) { return true; });
     for (std::uint32_t v = 0; v < nv; ++v) {
       if (kind_[v] != kSea) continue;
       Vertex& x = vertex(v);
-      const double d = std::max(hops[v], 1) * hop_length;
+      const double d = offshore[v] * radius;
       x.drainage_area = static_cast<float>(d);  // the distance to the coast (refine.cpp: shelves)
       const double depth = 150.0 + (def_.sea_depth - 150.0) * (1.0 - std::exp(-d / 4.0e5)) *
                                        (0.75 + 0.25 * random_.uniform());
@@ -465,7 +459,42 @@ class Classifier {
       x.water = sea;
       x.ground = sea - std::min(depth, def_.sea_depth);
     }
+    // Land: the distance from the coast along land edges (coastal plains follow it).
+    const std::vector<double> inland =
+        distances_over([&](std::uint32_t v) { return kind_[v] == kCoast; },
+                       [&](std::uint32_t v) { return kind_[v] != kSea; });
+    for (std::uint32_t v = 0; v < nv; ++v) {
+      if (kind_[v] == kSea) continue;
+      vertex(v).coast_hm =  // infinite where no coast is reachable
+          static_cast<std::uint16_t>(std::min(65535.0, std::round(inland[v] * radius / 100.0)));
+    }
     mesh_.downstream = down_;
+  }
+
+  // Shortest great-circle paths (radians) along the level's edges from the vertices `from`
+  // accepts, through those `through` accepts (Dijkstra; ties by vertex index, so the same bits
+  // every run). The level's edges vary in length by more than a factor of two (long ones meet
+  // at the octahedron's vertices), so hop counts would not do.
+  template <class From, class Through>
+  std::vector<double> distances_over(From from, Through through) {
+    const std::size_t nv = kind_.size();
+    std::vector<double> distance(nv, std::numeric_limits<double>::infinity());
+    using Entry = std::pair<double, std::uint32_t>;
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+    for (std::uint32_t v = 0; v < nv; ++v) {
+      if (from(v)) distance[v] = 0.0, open.push({0.0, v});
+    }
+    while (!open.empty()) {
+      const auto [d, v] = open.top();
+      open.pop();
+      if (d > distance[v]) continue;
+      for (auto [w, e] : neighbours_[v]) {
+        const double through_v = d + angle(vertex(v).p, vertex(w).p);
+        if (through(w) && through_v < distance[w])
+          distance[w] = through_v, open.push({through_v, w});
+      }
+    }
+    return distance;
   }
 
   BaseMesh& mesh_;
@@ -557,6 +586,7 @@ std::string BaseMesh::hash() const {
     feed(&v.water, sizeof v.water);
     feed(v.tangent.data(), sizeof(float) * 3);
     feed(&v.flags, 1);
+    feed(&v.coast_hm, sizeof v.coast_hm);
     feed(&v.detail, sizeof v.detail);
     feed(&v.drainage_area, sizeof v.drainage_area);
   }

@@ -57,6 +57,8 @@ const std::vector<NumberField>& number_fields() {
       {"relief_contrast", &PlanetDefinition::relief_contrast, 0.0, 2.0, false, true},
       {"belt_wavelength", &PlanetDefinition::belt_wavelength, 100000.0, 40000000.0, false, true},
       {"belt_height", &PlanetDefinition::belt_height, 0.0, 20000.0, false, true},
+      {"plateau_height", &PlanetDefinition::plateau_height, 0.0, 20000.0, false, true},
+      {"coastal_plain_width", &PlanetDefinition::coastal_plain_width, 0.0, 2000000.0, false, true},
       {"aridity", &PlanetDefinition::aridity, 0.0, 1.0, false, true},
       {"shelf_width", &PlanetDefinition::shelf_width, 0.0, 1000000.0, false, true},
       {"shelf_depth", &PlanetDefinition::shelf_depth, 1.0, 2000.0, false, true},

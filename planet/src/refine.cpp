@@ -47,36 +47,58 @@ double Rules::drain_rise(double length, double ruggedness) const {
                   0.1 * def.max_mountain_altitude);
 }
 
-// The regional field's and the belts' seeds, apart from every other stream of the planet's seed.
-constexpr std::uint64_t kRegionSalt = 0x726567696f6eULL, kBeltSalt = 0x62656c7473ULL;
-// ruggedness = exp(contrast · (kRegional·v + kBelt·belt − kShift)): v the regional field in
-// [−1, 1], belt in [0, 1]; the exponent spans [−1.2, 1.8]·contrast.
-constexpr double kRegional = 0.7, kBelt = 1.6, kShift = 0.5;
+// The regional field's, the belts' and the plateaus' seeds, apart from every other stream of the
+// planet's seed.
+constexpr std::uint64_t kRegionSalt = 0x726567696f6eULL, kBeltSalt = 0x62656c7473ULL,
+                        kPlateauSalt = 0x706c617465617573ULL;
+// ruggedness = exp(contrast · (kRegional·v + kBelt·belt + kScarp·scarp − kTableland·plateau −
+// kShift)): v the regional field in [−1, 1], belt, plateau and scarp in [0, 1]; the exponent spans
+// [−1.2 − kTableland, 1.8 + kScarp]·contrast.
+constexpr double kRegional = 0.7, kBelt = 1.6, kShift = 0.5, kScarp = 0.8, kTableland = 1.5;
+// Plateaus stand where their field exceeds kPlateauEdge, rising over the next kPlateauRise of it.
+constexpr double kPlateauEdge = 0.3, kPlateauRise = 0.1;
 
 Rules::Region Rules::region(const Vec3d& p) const {
-  if (def.relief_contrast == 0.0 && def.belt_height == 0.0) return {};
-  // Regions vary at half the belts' spacing; belts follow the zero lines of a second field (the
-  // ridges of 1 − |S|), narrowed by a sixth power.
+  if (def.relief_contrast == 0.0 && def.belt_height == 0.0 && def.plateau_height == 0.0) return {};
+  // Regions and plateaus vary at half the belts' spacing; belts follow the zero lines of a second
+  // field (the ridges of 1 − |S|), narrowed by a sixth power.
   const double regional_scale = 2.0 * radius / def.belt_wavelength;
   const double belt_scale = radius / def.belt_wavelength;
-  const auto seed_of = [&](std::uint64_t salt) {
-    return static_cast<std::uint32_t>(mix64(def.seed ^ salt));
+  const auto field = [&](double scale, std::uint64_t salt) {
+    return std::clamp(detail::gradient3(p[0] * scale, p[1] * scale, p[2] * scale,
+                                        static_cast<std::uint32_t>(mix64(def.seed ^ salt))),
+                      -1.0, 1.0);
   };
-  const double v = std::clamp(detail::gradient3(p[0] * regional_scale, p[1] * regional_scale,
-                                                p[2] * regional_scale, seed_of(kRegionSalt)),
-                              -1.0, 1.0);
-  const double s = std::clamp(detail::gradient3(p[0] * belt_scale, p[1] * belt_scale,
-                                                p[2] * belt_scale, seed_of(kBeltSalt)),
-                              -1.0, 1.0);
-  const double ridge = 1.0 - std::abs(s);
+  const double v = field(regional_scale, kRegionSalt);
+  const double ridge = 1.0 - std::abs(field(belt_scale, kBeltSalt));
   const double ridge2 = ridge * ridge;
   const double belt = ridge2 * ridge2 * ridge2;
-  return {std::exp(def.relief_contrast * (kRegional * v + kBelt * belt - kShift)),
-          def.belt_height * belt};
+  // A tableland: 0 off it, 1 on its top, a smoothstep across its edge, where the escarpment is.
+  double plateau = 0.0;
+  if (def.plateau_height > 0.0) {
+    const double x =
+        std::clamp((field(regional_scale, kPlateauSalt) - kPlateauEdge) / kPlateauRise, 0.0, 1.0);
+    plateau = x * x * (3.0 - 2.0 * x);
+  }
+  const double scarp = 4.0 * plateau * (1.0 - plateau);
+  return {std::exp(def.relief_contrast *
+                   (kRegional * v + kBelt * belt + kScarp * scarp - kTableland * plateau - kShift)),
+          def.belt_height * belt + def.plateau_height * plateau};
+}
+
+// Coastal plains: the ruggedness at the coast is exp(−contrast · kCoastal) of inland's, rising
+// to it over coastal_plain_width.
+constexpr double kCoastal = 1.5;
+
+double Rules::coastal_factor(double coast_distance) const {
+  if (def.coastal_plain_width <= 0.0 || coast_distance >= def.coastal_plain_width) return 1.0;
+  const double x = coast_distance / def.coastal_plain_width;
+  const double inland = x * x * (3.0 - 2.0 * x);
+  return std::exp(-def.relief_contrast * kCoastal * (1.0 - inland));
 }
 
 double Rules::max_ruggedness() const {
-  return std::exp(def.relief_contrast * (kRegional + kBelt - kShift));
+  return std::exp(def.relief_contrast * (kRegional + kBelt + kScarp - kShift));
 }
 
 // The climate's seed, apart from every other stream of the planet's seed; its regional field
@@ -200,6 +222,15 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
                     m.ground - std::max(def.riverbed_edge_height, l_ab * def.min_riverbed_slope));
   };
 
+  // Land: the distance to the coast through the nearest corner, in the vertex's hectometres.
+  auto reach_coast = [&] {
+    double metres = std::numeric_limits<double>::infinity();
+    for (const Vertex* c : {&a, &b, &t, &d}) {
+      metres = std::min(metres, coast_distance(*c) + rules.radius * angle(m.p, c->p));
+    }
+    m.coast_hm = static_cast<std::uint16_t>(std::min(65535.0, std::round(metres / 100.0)));
+  };
+
   if (level < rules.base_level) {  // base shape: geometry only; §4 labels it afterwards
     m.p = place(offset(kBaseShapeOffset));
     m.flags = kSea;
@@ -246,6 +277,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       m.p = place(eq2);
       m.flags = kLand | kLake;
       m.ground = m.water = 0.5 * (a.water + b.water);
+      reach_coast();
       return r;
     }
     case EdgeType::lake: {  // the floor under a lake: below the mean of its corners, deeper
@@ -254,6 +286,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       m.water = 0.5 * (a.water + b.water);
       m.ground = std::min(0.25 * (a.ground + b.ground + t.ground + d.ground), m.water - 1.0) -
                  kLakeFloorSlope * l_ab * g1;
+      reach_coast();
       return r;
     }
     case EdgeType::river: {
@@ -273,6 +306,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       }
       m.p = place(normalize(add(scale(t.p, 1.0 - x), scale(d.p, x))));
       m.flags = kLand | kRiver;
+      reach_coast();
       m.ground = 0.5 * (a.ground + b.ground);
       m.water = 0.5 * (a.water + b.water);
       m.drainage_area = up.drainage_area;
@@ -293,7 +327,9 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       const double high = a_up ? level_a : level_b, low = a_up ? level_b : level_a;
       m.p = place(offset(kLandOffset));
       m.flags = kLand;
-      m.detail = static_cast<float>(rules.region(m.p).ruggedness);
+      reach_coast();
+      m.detail = static_cast<float>(rules.region(m.p).ruggedness *
+                                    rules.coastal_factor(coast_distance(m)));
       if (dry_diamond) {
         // On the smooth surface, kept within the middle of the drop.
         m.ground =
@@ -314,6 +350,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
 
   // A continent vertex (§5.3 step 6).
   m.p = place(offset(kLandOffset));
+  reach_coast();
   const Vertex* corner[4] = {&a, &b, &t, &d};
   double length[4];
   for (int i = 0; i < 4; ++i) length[i] = rules.radius * angle(m.p, corner[i]->p);
@@ -351,9 +388,10 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   }
 
   m.flags = kLand;
-  // The region scales the fractal's roughness here, eq. 5's mountains and the detail below.
+  // The region scales the fractal's roughness here, eq. 5's mountains and the detail below;
+  // coastal plains are smoother.
   const Rules::Region region = rules.region(m.p);
-  const double rugged = region.ruggedness;
+  const double rugged = region.ruggedness * rules.coastal_factor(coast_distance(m));
   m.detail = static_cast<float>(rugged);
   // The estimate: eq. 5 for a mountain vertex between rivers, else the surface under the new
   // position (the smooth one among dry corners, eq. 2's weights beside water) displaced by the
@@ -373,10 +411,11 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       estimate = corner[highest]->ground + rugged * def.mountain_slope * length[highest] * g2;
     }
   }
-  // Mountain belts, level by level: the part of the belts' uplift at m that the level above does
-  // not carry already (dry corners carry theirs, water none), so that the coarse levels raise
-  // whole ranges and rivers keep their beds through them. The finer levels inherit it.
-  if (l_ab >= rules.uplift_finest_edge() && def.belt_height > 0.0) {
+  // Mountain belts and plateaus, level by level: the part of their uplift at m that the level
+  // above does not carry already (dry corners carry theirs, water none), so that the coarse
+  // levels raise whole ranges and rivers keep their beds through them. The finer levels inherit
+  // it.
+  if (l_ab >= rules.uplift_finest_edge() && (def.belt_height > 0.0 || def.plateau_height > 0.0)) {
     const double weight[4] = {wa, wb, wt, wd};
     double carried = 0.0;
     for (int i = 0; i < 4; ++i) {

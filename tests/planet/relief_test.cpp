@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <memory>
 #include <vector>
 
 #include "default_definition.hpp"
@@ -47,6 +49,7 @@ TEST(ReliefRegions, RangeFromSmoothPlainsToRuggedBelts) {
 TEST(ReliefRegions, ZeroContrastAndHeightGiveEveryContinentTheSameRelief) {
   PlanetDefinition d = with_contrast(0.0);
   d.belt_height = 0.0;
+  d.plateau_height = 0.0;
   const Rules rules(d);
   for (const Vec3d& p : directions(1000)) {
     EXPECT_EQ(rules.region(p).ruggedness, 1.0);
@@ -61,7 +64,9 @@ TEST(ReliefRegions, BeltsLiftTheLandAlongThem) {
   // include their valleys); away from them (uplift under 5 % of it) it hardly moves.
   PlanetDefinition flat = with_contrast(0.0);
   flat.belt_height = 0.0;
+  flat.plateau_height = 0.0;
   PlanetDefinition lifted = with_contrast(0.0);
+  lifted.plateau_height = 0.0;
   const auto without = Planet::create(flat), with = Planet::create(lifted);
   Sampler a(without), b(with);
   double crest_rise = 0.0, far_rise = 0.0;
@@ -116,6 +121,115 @@ TEST(ReliefRegions, BeltsAreRougherThanPlainsOnTheGround) {
   const std::size_t tenth = land.size() / 10;
   const double plains = roughness(0, tenth), belts = roughness(land.size() - tenth, land.size());
   EXPECT_GT(belts, 1.5 * plains) << "belts " << belts << " m, plains " << plains << " m per 200 m";
+}
+
+// Mean absolute step (m) between 17 samples 200 m apart eastwards from each point.
+double ground_steps(const std::shared_ptr<const Planet>& planet, const std::vector<Vec3d>& points,
+                    double spacing = 200.0) {
+  Sampler sampler(planet);
+  const int level = planet->level_for_spacing(spacing);
+  double sum = 0.0;
+  int n = 0;
+  for (const Vec3d& p : points) {
+    const Vec3d east = normalize(cross({0.0, 0.0, 1.0}, p));
+    double previous = 0.0;
+    for (int k = 0; k <= 16; ++k) {
+      const Vec3d q = normalize(add(p, scale(east, spacing * k / planet->definition().radius)));
+      const double g = sampler.at(q, level, 0.0).ground;
+      if (k > 0) sum += std::abs(g - previous), ++n;
+      previous = g;
+    }
+  }
+  return sum / n;
+}
+
+TEST(ReliefRegions, PlateausLiftTablelandsBehindSteeperEscarpments) {
+  // Without belts, a point's uplift is plateau_height times its plateau share.
+  PlanetDefinition flat = with_contrast(1.0);
+  flat.belt_height = 0.0;
+  flat.plateau_height = 0.0;
+  PlanetDefinition lifted = flat;
+  lifted.plateau_height = test::default_definition().plateau_height;
+  const auto without = Planet::create(flat), with = Planet::create(lifted);
+  Sampler a(without), b(with);
+  std::vector<Vec3d> tops, scarps;
+  double top_rise = 0.0, far_rise = 0.0;
+  int far = 0;
+  for (const Vec3d& p : directions(8000)) {
+    const double share = with->rules().region(p).uplift / lifted.plateau_height;
+    const PointSample s0 = a.at(p, with->rules().mesh_level + 6, 0.0);
+    const PointSample s1 = b.at(p, with->rules().mesh_level + 6, 0.0);
+    if (s0.type != SurfaceType::land || s1.type != SurfaceType::land) continue;
+    if (share > 0.99) tops.push_back(p), top_rise += s1.ground - s0.ground;
+    if (share > 0.2 && share < 0.8) scarps.push_back(p);
+    if (share == 0.0) far_rise += s1.ground - s0.ground, ++far;
+  }
+  ASSERT_GT(tops.size(), 40u);
+  ASSERT_GT(scarps.size(), 40u);
+  ASSERT_GT(far, 500);
+  // Rivers keep their beds through the tablelands, so the samples include their canyons.
+  EXPECT_GT(top_rise / static_cast<double>(tops.size()), 0.2 * lifted.plateau_height);
+  EXPECT_LT(std::abs(far_rise / far), 0.02 * lifted.plateau_height);
+  const double top_steps = ground_steps(with, tops), scarp_steps = ground_steps(with, scarps);
+  // The escarpments drain as steeply as they are rugged; on the tops the drain rise, not the
+  // roughness, sets the relief at this scale (planet.md "Relief regions").
+  EXPECT_GT(scarp_steps, 1.15 * top_steps)
+      << "escarpments " << scarp_steps << " m, tops " << top_steps << " m per 200 m";
+}
+
+TEST(ReliefRegions, CoastalPlainsAreSmootherThanTheSameLandWithout) {
+  // Land within 40 km of the sea: its steps between 200 m samples, with and without coastal
+  // plains (the same planet otherwise).
+  PlanetDefinition none = test::default_definition();
+  none.coastal_plain_width = 0.0;
+  const auto& with = test::default_planet();
+  const auto without = Planet::create(none);
+  Sampler sampler(with);
+  const double radius = none.radius;
+  std::vector<Vec3d> near_coast;
+  for (const Vec3d& p : directions(6000)) {
+    if (sampler.at(p, with->level_for_spacing(200.0), 0.0).type != SurfaceType::land) continue;
+    const Vec3d east = normalize(cross({0.0, 0.0, 1.0}, p)), north = normalize(cross(p, east));
+    for (int k = 0; k < 8; ++k) {
+      const double turn = k * std::acos(-1.0) / 4.0;
+      const Vec3d way = add(scale(east, std::cos(turn)), scale(north, std::sin(turn)));
+      const Vec3d q = normalize(add(p, scale(way, 40000.0 / radius)));
+      const SurfaceType type = sampler.at(q, with->rules().mesh_level + 2, 0.0).type;
+      if (type == SurfaceType::sea || type == SurfaceType::coast) {
+        near_coast.push_back(p);
+        break;
+      }
+    }
+  }
+  ASSERT_GT(near_coast.size(), 200u);
+  const double smooth = ground_steps(with, near_coast), rough = ground_steps(without, near_coast);
+  EXPECT_LT(smooth, 0.9 * rough) << smooth << " m against " << rough << " m per 200 m";
+}
+
+TEST(ReliefRegions, LandVerticesKnowHowFarTheCoastIs) {
+  // The distance a land vertex carries runs along the mesh, so it is never shorter than the
+  // great circle to the nearest coast vertex (less the 50 m its hectometres round off).
+  const auto& planet = test::default_planet();
+  const std::vector<Vertex>& vertices = planet->base_mesh().hierarchy.vertices;
+  std::vector<Vec3d> coast;
+  for (const Vertex& v : vertices) {
+    if ((v.flags & kCoast) != 0) coast.push_back(v.p);
+  }
+  ASSERT_GT(coast.size(), 100u);
+  int land = 0;
+  for (const Vertex& v : vertices) {
+    if ((v.flags & kSea) != 0) continue;
+    if ((v.flags & kCoast) != 0) {
+      EXPECT_EQ(coast_distance(v), 0.0);
+      continue;
+    }
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Vec3d& c : coast) nearest = std::min(nearest, angle(v.p, c));
+    EXPECT_GE(coast_distance(v) + 50.0, nearest * planet->definition().radius);
+    EXPECT_GT(coast_distance(v), 0.0);
+    ++land;
+  }
+  EXPECT_GT(land, 1000);
 }
 
 }  // namespace

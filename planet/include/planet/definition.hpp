@@ -61,6 +61,12 @@ struct PlanetDefinition {
   double belt_wavelength = 4000000.0;
   /// Metres the belts lift dry land on their crests (rivers keep their beds through them).
   double belt_height = 3000.0;
+  /// Metres plateaus (tablelands) lift dry land: smooth tops, rugged escarpments, on a field of
+  /// the regional field's wavelength; 0 for none.
+  double plateau_height = 1500.0;
+  /// Metres inland over which the land is smoother towards the coast (coastal plains); 0 for
+  /// none.
+  double coastal_plain_width = 300000.0;
   /// Continental shelves (planet.md "Continental shelves"): the sea floor within shelf_width of
   /// a coast lies no deeper than shelf_depth (half of it at the coast); 0 for none.
   double shelf_width = 80000.0;

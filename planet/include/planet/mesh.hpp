@@ -63,6 +63,9 @@ struct Vertex {
   ///   the vertex and its four neighbours when it was made (smooth_surface.hpp: ground_slope).
   std::array<float, 3> tangent{};
   std::uint8_t flags = kSea;
+  /// Land: hectometres to the nearest sea coast along the mesh, saturating at 65 535 (coastal
+  /// plains follow it: Rules::coastal_factor). Sea vertices keep theirs in drainage_area.
+  std::uint16_t coast_hm = 0;
   /// Weight of the fractal detail: the region's ruggedness on dry land (Rules::region), 0 on
   /// water and rivers.
   float detail = 0.0f;
@@ -77,6 +80,11 @@ static_assert(sizeof(Vertex) <= 72, "a larger vertex slows the descent (Vertex::
 /// above its ground.
 inline bool wet(const Vertex& v) {
   return (v.flags & (kRiver | kCoast | kSea | kLake)) != 0 || v.water > v.ground;
+}
+
+/// Metres from a vertex to the nearest sea coast along the mesh (0 on it), from either side.
+inline double coast_distance(const Vertex& v) {
+  return (v.flags & kSea) != 0 ? static_cast<double>(v.drainage_area) : 100.0 * v.coast_hm;
 }
 
 /// The height water leaves a vertex at: its surface where wet, else its ground.
@@ -126,16 +134,21 @@ struct Rules {
     /// Factor of the roughness: below 1 on plains, about 1 on hills, up to max_ruggedness()
     /// along mountain belts; exactly 1 everywhere when relief_contrast is 0.
     double ruggedness = 1.0;
-    /// Metres the belts lift dry land here: belt_height on a belt's crest, 0 away from belts.
+    /// Metres the belts and plateaus lift dry land here: belt_height on a belt's crest,
+    /// plateau_height on a plateau, 0 away from both.
     double uplift = 0.0;
   };
   Region region(const Vec3d& p) const;
+  /// Factor of the ruggedness at a distance (metres) from the coast: below 1 on the coastal
+  /// plains within coastal_plain_width, 1 beyond (planet.md "Relief regions").
+  double coastal_factor(double coast_distance) const;
   double max_ruggedness() const;
   /// How dry the climate is at a direction, 0 (wet) to 1 (dry): the subtropical belts of high
   /// pressure around 25° of latitude and a seeded regional field (planet.md "Lakes"). A lake is
   /// closed where dryness ≥ 1 − aridity.
   double dryness(const Vec3d& p) const;
-  /// Splits of edges at least this long add the belts' uplift (finer ones inherit it).
+  /// Splits of edges at least this long add the belts' and plateaus' uplift (finer ones inherit
+  /// it).
   double uplift_finest_edge() const { return def.belt_wavelength / 80.0; }
 };
 

@@ -38,8 +38,9 @@ namespace terrain {
 /// over vertex slopes), and splits among dry vertices predict from it; planets have relief regions
 /// (ruggedness, mountain belts); shaded PNGs (colour tiles, pictures) are deflated by Huffman
 /// coding alone. 12: planets have lakes, open and closed (lake faces, a `lake` surface type), and
-/// continental shelves and slopes on a deeper ocean floor.
-inline constexpr int kProductGeneration = 12;
+/// continental shelves and slopes on a deeper ocean floor. 13: planets have plateaus and coastal
+/// plains (land vertices carry their distance to the coast).
+inline constexpr int kProductGeneration = 13;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
