@@ -14,14 +14,17 @@ namespace {
 
 // Valley floors along rivers and coasts, at every level. In a land triangle with wet corners
 // (river or coast) and dry ones, the ground rises only kFloorRise of the way to the dry
-// corners over the first kFloorWidth of the way (in the dry corners' total barycentric weight),
-// then climbs the rest linearly. A piecewise-linear V whose sides are steeper than the river it
-// holds leaves the samples beside a channel narrower than a sample lower than all eight
-// neighbours (pits at every zoom: docs/analysis.md); a floor about a sample wide drains them
-// into it. The blend uses only the wet and dry barycentric weights, and along a shared edge both
-// triangles see the same two corners with the same weights, so the surface stays continuous.
-// Where two corners are dry their level is the smooth surface's cubic along their edge
-// (smooth_surface.hpp), which the all-dry triangle across that edge shares.
+// corners over the first kFloorWidth of the way (in the dry corners' total barycentric weight
+// D), then blends into the smooth surface with weight smoothstep((D − kFloorWidth) / (1 −
+// kFloorWidth)). A piecewise-linear V whose sides are steeper than the river it holds leaves the
+// samples beside a channel narrower than a sample lower than all eight neighbours (pits at every
+// zoom: docs/analysis.md); a floor about a sample wide drains them into it. The smooth surface
+// here is the Clough–Tocher cubic of the corners with the wet ones level (no slope): along the
+// dry corners' edge it is the cubic and cross-edge slope of those two corners alone, which the
+// all-dry triangle across that edge shares, and the blend's weight arrives there flat, so the
+// valley side meets the dry land with the same height and slope (C1) — until generation 13 it
+// climbed there linearly and left a crease. Along every other edge both triangles see the same
+// two corners with the same weights, so the surface stays continuous.
 constexpr double kFloorWidth = 0.5;
 constexpr double kFloorRise = 0.001;
 
@@ -48,12 +51,21 @@ double floored_ground(const std::array<const Vertex*, 3>& corner, const std::arr
     }
   }
   const double share = std::min(dry_weight, 1.0);
-  const double rise = share <= kFloorWidth ? kFloorRise * share
-                                           : kFloorRise * kFloorWidth +
-                                                 (1.0 - kFloorRise * kFloorWidth) *
-                                                     (share - kFloorWidth) / (1.0 - kFloorWidth);
   const double wet_level = wet_sum / wet_weight;
-  return wet_level + rise * (dry_level - wet_level);
+  const double floor = wet_level + kFloorRise * share * (dry_level - wet_level);
+  if (share <= kFloorWidth) return floor;
+  // The valley side: from the floor to the smooth surface, which it reaches with the surface's
+  // slope at the dry corners (C1 with the all-dry triangle across their edge).
+  std::array<Vertex, 3> level{};
+  std::array<const Vertex*, 3> side = corner;
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (!wet(*corner[k])) continue;
+    level[k] = *corner[k];
+    ground_slope(level[k]) = {0.0f, 0.0f, 0.0f};
+    side[k] = &level[k];
+  }
+  const double x = (share - kFloorWidth) / (1.0 - kFloorWidth);
+  return floor + x * x * (3.0 - 2.0 * x) * (clough_tocher(side, w, radius) - floor);
 }
 
 }  // namespace

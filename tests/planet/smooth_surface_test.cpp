@@ -194,6 +194,55 @@ TEST_F(DryLand, HasNoCreasesAcrossTriangleEdges) {
   EXPECT_GT(crossings, 40);
 }
 
+TEST_F(DryLand, ValleySidesMeetTheDryLandWithoutACrease) {
+  // Lines across a river valley 15–35 km east of the square's centre: every crossing from a
+  // triangle beside the water (a valley's floor and side) into a dry one over an edge with two
+  // dry ends. The valley side reaches the smooth surface with its slope there (C1), where the
+  // floors of generation 12 climbed to it linearly and left a crease.
+  Sampler sampler(planet_);
+  Hierarchy h = planet_->base_mesh().hierarchy;
+  const double step = 20.0;
+  int crossings = 0;
+  for (int line = 0; line < 16; ++line) {
+    const double north = -6000.0 + 800.0 * line;
+    auto ground = [&](double east) { return sampler.at(point(east, north), level(), 0.0).ground; };
+    auto leaf = [&](double east) { return h.locate(point(east, north), level()); };
+    auto beside_water = [&](std::int32_t t) {
+      const Tri& tri = h.tris[static_cast<std::size_t>(t)];
+      return tri.face == FaceType::land &&
+             !all_dry({&h.vertices[tri.v[0]], &h.vertices[tri.v[1]], &h.vertices[tri.v[2]]});
+    };
+    for (double east = 15000.0; east < 35000.0; east += step) {
+      if (leaf(east) == leaf(east + step)) continue;
+      double lo = east, hi = east + step;
+      while (hi - lo > 1e-3) {
+        const double mid = 0.5 * (lo + hi);
+        (leaf(mid) == leaf(lo) ? lo : hi) = mid;
+      }
+      const double at = 0.5 * (lo + hi);
+      const std::int32_t before = leaf(at - 2.0), after = leaf(at + 2.0);
+      if (before == after) continue;
+      const bool wet_dry = beside_water(before) && dry_triangle(h, point(at + 2.0, north));
+      const bool dry_wet = dry_triangle(h, point(at - 2.0, north)) && beside_water(after);
+      if (!wet_dry && !dry_wet) continue;
+      // The edge between them: their two shared corners, both dry.
+      int shared_dry = 0;
+      for (std::uint32_t u : h.tris[static_cast<std::size_t>(before)].v) {
+        for (std::uint32_t v : h.tris[static_cast<std::size_t>(after)].v) {
+          if (u == v && !wet(h.vertices[u])) ++shared_dry;
+        }
+      }
+      if (shared_dry != 2) continue;
+      const double coarse = slope_jump(ground, at, 2.0), fine = slope_jump(ground, at, 0.2);
+      EXPECT_LT(fine, 0.2 * coarse + 1e-5)
+          << "a crease at " << at << " m east, " << north << " m north: slope change " << coarse
+          << " over 2 m, " << fine << " over 0.2 m";
+      ++crossings;
+    }
+  }
+  EXPECT_GT(crossings, 20);
+}
+
 TEST_F(DryLand, SplitsGiveTheSameVertexFromEitherTriangleOfTheirDiamond) {
   // A split is computed by whichever of the diamond's two triangles a descent reaches first; the
   // smooth prediction and the fan's slope must not depend on which, to the bit.
