@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "default_definition.hpp"
 #include "planet/planet.hpp"
@@ -127,10 +128,46 @@ class DryLand : public ::testing::Test {
     const double r = planet_->definition().radius;
     return normalize(add(centre, add(scale(e, east / r), scale(n, north / r))));
   }
-  bool dry_triangle(Hierarchy& h, const Vec3d& p) const {
-    const Tri& tri = h.tris[static_cast<std::size_t>(h.locate(p, level()))];
+  // A land triangle whose corners are all dry.
+  static bool dry(const Hierarchy& h, std::int32_t t) {
+    const Tri& tri = h.tris[static_cast<std::size_t>(t)];
     return tri.face == FaceType::land &&
            all_dry({&h.vertices[tri.v[0]], &h.vertices[tri.v[1]], &h.vertices[tri.v[2]]});
+  }
+  // Along eastward lines (`north` metres from the centre, east from `from` to `to`), every
+  // crossing from one triangle into another that `selected(h, before, after)` picks: the slope's
+  // change across it must shrink with the step (C1), where a crease would keep it. Returns how
+  // many crossings it checked.
+  template <typename Selected>
+  int check_crossings(const std::vector<double>& norths, double from, double to,
+                      const Selected& selected) const {
+    Sampler sampler(planet_);
+    Hierarchy h = planet_->base_mesh().hierarchy;
+    const double step = 20.0;
+    int crossings = 0;
+    for (const double north : norths) {
+      auto ground = [&](double east) {
+        return sampler.at(point(east, north), level(), 0.0).ground;
+      };
+      auto leaf = [&](double east) { return h.locate(point(east, north), level()); };
+      for (double east = from; east < to; east += step) {
+        if (leaf(east) == leaf(east + step)) continue;
+        double lo = east, hi = east + step;  // the crossing, to a millimetre
+        while (hi - lo > 1e-3) {
+          const double mid = 0.5 * (lo + hi);
+          (leaf(mid) == leaf(lo) ? lo : hi) = mid;
+        }
+        const double at = 0.5 * (lo + hi);
+        const std::int32_t before = leaf(at - 2.0), after = leaf(at + 2.0);
+        if (before == after || !selected(h, before, after)) continue;  // past a corner, or not one
+        const double coarse = slope_jump(ground, at, 2.0), fine = slope_jump(ground, at, 0.2);
+        EXPECT_LT(fine, 0.2 * coarse + 1e-5)
+            << "a crease at " << at << " m east, " << north << " m north: slope change " << coarse
+            << " over 2 m, " << fine << " over 0.2 m";
+        ++crossings;
+      }
+    }
+    return crossings;
   }
 
   static std::shared_ptr<const Planet> planet_;
@@ -164,33 +201,12 @@ TEST_F(DryLand, HasNoFlatFacets) {
 TEST_F(DryLand, HasNoCreasesAcrossTriangleEdges) {
   // Along lines over the square, every crossing from one dry triangle into another: the slope's
   // change across it shrinks with the step (C1), where a crease would keep it.
-  Sampler sampler(planet_);
-  Hierarchy h = planet_->base_mesh().hierarchy;
-  const double step = 20.0;
-  int crossings = 0;
-  for (int line = 0; line < 6; ++line) {
-    const double north = 900.0 * line;
-    auto ground = [&](double east) { return sampler.at(point(east, north), level(), 0.0).ground; };
-    auto leaf = [&](double east) { return h.locate(point(east, north), level()); };
-    for (double east = 0.0; east < 6000.0; east += step) {
-      if (leaf(east) == leaf(east + step)) continue;
-      double lo = east, hi = east + step;  // the crossing, to a millimetre
-      while (hi - lo > 1e-3) {
-        const double mid = 0.5 * (lo + hi);
-        (leaf(mid) == leaf(lo) ? lo : hi) = mid;
-      }
-      const double at = 0.5 * (lo + hi);
-      if (!dry_triangle(h, point(at - 2.0, north)) || !dry_triangle(h, point(at + 2.0, north)) ||
-          leaf(at - 2.0) == leaf(at + 2.0)) {
-        continue;  // beside water (valley floors), or past a corner
-      }
-      const double coarse = slope_jump(ground, at, 2.0), fine = slope_jump(ground, at, 0.2);
-      EXPECT_LT(fine, 0.2 * coarse + 1e-5)
-          << "a crease at " << at << " m east, " << north << " m north: slope change " << coarse
-          << " over 2 m, " << fine << " over 0.2 m";
-      ++crossings;
-    }
-  }
+  std::vector<double> norths;
+  for (int line = 0; line < 6; ++line) norths.push_back(900.0 * line);
+  const int crossings = check_crossings(
+      norths, 0.0, 6000.0, [this](Hierarchy& h, std::int32_t before, std::int32_t after) {
+        return dry(h, before) && dry(h, after);  // not beside water (valley floors)
+      });
   EXPECT_GT(crossings, 40);
 }
 
@@ -199,47 +215,26 @@ TEST_F(DryLand, ValleySidesMeetTheDryLandWithoutACrease) {
   // triangle beside the water (a valley's floor and side) into a dry one over an edge with two
   // dry ends. The valley side reaches the smooth surface with its slope there (C1), where the
   // floors of generation 12 climbed to it linearly and left a crease.
-  Sampler sampler(planet_);
-  Hierarchy h = planet_->base_mesh().hierarchy;
-  const double step = 20.0;
-  int crossings = 0;
-  for (int line = 0; line < 16; ++line) {
-    const double north = -6000.0 + 800.0 * line;
-    auto ground = [&](double east) { return sampler.at(point(east, north), level(), 0.0).ground; };
-    auto leaf = [&](double east) { return h.locate(point(east, north), level()); };
-    auto beside_water = [&](std::int32_t t) {
-      const Tri& tri = h.tris[static_cast<std::size_t>(t)];
-      return tri.face == FaceType::land &&
-             !all_dry({&h.vertices[tri.v[0]], &h.vertices[tri.v[1]], &h.vertices[tri.v[2]]});
-    };
-    for (double east = 15000.0; east < 35000.0; east += step) {
-      if (leaf(east) == leaf(east + step)) continue;
-      double lo = east, hi = east + step;
-      while (hi - lo > 1e-3) {
-        const double mid = 0.5 * (lo + hi);
-        (leaf(mid) == leaf(lo) ? lo : hi) = mid;
-      }
-      const double at = 0.5 * (lo + hi);
-      const std::int32_t before = leaf(at - 2.0), after = leaf(at + 2.0);
-      if (before == after) continue;
-      const bool wet_dry = beside_water(before) && dry_triangle(h, point(at + 2.0, north));
-      const bool dry_wet = dry_triangle(h, point(at - 2.0, north)) && beside_water(after);
-      if (!wet_dry && !dry_wet) continue;
-      // The edge between them: their two shared corners, both dry.
-      int shared_dry = 0;
-      for (std::uint32_t u : h.tris[static_cast<std::size_t>(before)].v) {
-        for (std::uint32_t v : h.tris[static_cast<std::size_t>(after)].v) {
-          if (u == v && !wet(h.vertices[u])) ++shared_dry;
+  std::vector<double> norths;
+  for (int line = 0; line < 16; ++line) norths.push_back(-6000.0 + 800.0 * line);
+  const auto beside_water = [](Hierarchy& h, std::int32_t t) {
+    return h.tris[static_cast<std::size_t>(t)].face == FaceType::land && !dry(h, t);
+  };
+  const int crossings = check_crossings(
+      norths, 15000.0, 35000.0, [&](Hierarchy& h, std::int32_t before, std::int32_t after) {
+        if (!(beside_water(h, before) && dry(h, after)) &&
+            !(dry(h, before) && beside_water(h, after))) {
+          return false;
         }
-      }
-      if (shared_dry != 2) continue;
-      const double coarse = slope_jump(ground, at, 2.0), fine = slope_jump(ground, at, 0.2);
-      EXPECT_LT(fine, 0.2 * coarse + 1e-5)
-          << "a crease at " << at << " m east, " << north << " m north: slope change " << coarse
-          << " over 2 m, " << fine << " over 0.2 m";
-      ++crossings;
-    }
-  }
+        // The edge between them: their two shared corners, both dry.
+        int shared_dry = 0;
+        for (std::uint32_t u : h.tris[static_cast<std::size_t>(before)].v) {
+          for (std::uint32_t v : h.tris[static_cast<std::size_t>(after)].v) {
+            if (u == v && !wet(h.vertices[u])) ++shared_dry;
+          }
+        }
+        return shared_dry == 2;
+      });
   EXPECT_GT(crossings, 20);
 }
 
