@@ -41,6 +41,9 @@ Usage:
                                          geomorphometry of N × N samples (default 512) around
                                          LAT, LON, M metres apart (default: a zoom-Z tile's
                                          spacing, Z = 8): docs/analysis.md
+  planet hypsometry PLANET.json [--samples N] [--cell M]
+                                         the land's altitudes over the whole planet: N points
+                                         (default 20 000) at M metres' detail (default 200)
   planet export [PLANET.json|default]    an offline pack (MBTiles 1.3 or PMTiles v3) of the
                                          planet's geographic tiles as the server serves them
                                          (docs/packs.md); default: config/planets/default.json
@@ -323,6 +326,29 @@ int run(const Args& args) {
     if (!figures) {
       std::cerr << "planet analyze: " << figures.error().pointer << ": " << figures.error().message
                 << "\n";
+      return 2;
+    }
+    std::cout << figures->dump(2) << "\n";
+    return 0;
+  }
+  if (command == "hypsometry") {
+    PlanetHypsometryOptions options;
+    const auto samples =
+        integer_arg("--samples", args.get("--samples", "20000"), 100, kMaxHypsometrySamples);
+    if (!samples) return 2;
+    options.samples = static_cast<int>(*samples);
+    if (args.has("--cell")) {
+      const auto cell = tools::parse_number(args.get("--cell", ""));
+      if (!cell || !(*cell > 0)) {
+        std::cerr << "planet hypsometry: --cell must be a number of metres greater than 0\n";
+        return 2;
+      }
+      options.cell_size = *cell;
+    }
+    Result<nlohmann::json> figures = planet_hypsometry(world, options);
+    if (!figures) {
+      std::cerr << "planet hypsometry: " << figures.error().pointer << ": "
+                << figures.error().message << "\n";
       return 2;
     }
     std::cout << figures->dump(2) << "\n";

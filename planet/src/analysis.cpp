@@ -1,5 +1,6 @@
 #include "planet/analysis.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -83,6 +84,66 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
                   {"river_cells", river_cells},
                   {"lake_cells", lake_cells}};
   if (options.cell_size == 0.0) out["input"]["zoom"] = options.zoom;
+  return out;
+}
+
+terrain::Result<nlohmann::json> planet_hypsometry(const std::shared_ptr<const Planet>& planet,
+                                                  const PlanetHypsometryOptions& options) {
+  using terrain::Error;
+  if (options.samples < 100 || options.samples > kMaxHypsometrySamples) {
+    return Error{"must be an integer from 100 to " + std::to_string(kMaxHypsometrySamples),
+                 "/samples"};
+  }
+  if (!(options.cell_size >= 0.01 && options.cell_size <= 1e5)) {
+    return Error{"must be a number of metres from 0.01 to 100000", "/cell_size"};
+  }
+  const int level = planet->level_for_spacing(options.cell_size);
+  const double octaves = planet->octaves_for_spacing(options.cell_size);
+  Sampler sampler(planet);
+  std::vector<double> land;
+  // A Fibonacci lattice: n points, each standing for an equal share of the sphere.
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  const int n = options.samples;
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / n, r = std::sqrt(1.0 - z * z);
+    const Vec3d p{r * std::cos(golden * i), r * std::sin(golden * i), z};
+    const PointSample s = sampler.at(p, level, octaves);
+    if (s.type != SurfaceType::sea) land.push_back(s.ground);
+  }
+  nlohmann::json out;
+  out["input"] = {{"kind", "planet"},
+                  {"planet_id", planet->id()},
+                  {"samples", n},
+                  {"cell_size_m", options.cell_size},
+                  {"level", level}};
+  out["land_samples"] = land.size();
+  out["land_share"] = static_cast<double>(land.size()) / n;
+  if (land.empty()) return out;
+  std::sort(land.begin(), land.end());
+  double sum = 0.0;
+  for (double h : land) sum += h;
+  const double mean = sum / static_cast<double>(land.size());
+  const auto percentile = [&](double q) {
+    return land[std::min(land.size() - 1,
+                         static_cast<std::size_t>(q * static_cast<double>(land.size())))];
+  };
+  out["elevation_m"] = {{"mean", mean},
+                        {"min", land.front()},
+                        {"max", land.back()},
+                        {"p10", percentile(0.1)},
+                        {"p25", percentile(0.25)},
+                        {"median", percentile(0.5)},
+                        {"p75", percentile(0.75)},
+                        {"p90", percentile(0.9)}};
+  nlohmann::json below = nlohmann::json::array();
+  for (const double altitude : {0.0, 200.0, 500.0, 1000.0, 2000.0, 4000.0}) {
+    const auto count = std::lower_bound(land.begin(), land.end(), altitude) - land.begin();
+    below.push_back({{"altitude_m", altitude},
+                     {"share", static_cast<double>(count) / static_cast<double>(land.size())}});
+  }
+  out["land_below"] = below;
+  out["hypsometric_integral"] =
+      land.back() > land.front() ? (mean - land.front()) / (land.back() - land.front()) : 0.0;
   return out;
 }
 

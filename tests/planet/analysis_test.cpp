@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include "default_definition.hpp"
 
@@ -99,6 +101,62 @@ TEST(PlanetAnalysis, RefusesBadOptionsNamingTheField) {
   EXPECT_EQ(analyze_planet(default_planet(), bad_cell).error().pointer, "/cell_size");
   bad_cell.cell_size = NAN;
   EXPECT_EQ(analyze_planet(default_planet(), bad_cell).error().pointer, "/cell_size");
+}
+
+TEST(PlanetHypsometry, SummarisesTheLandsAltitudes) {
+  PlanetHypsometryOptions options;
+  options.samples = 4000;
+  const auto result = planet_hypsometry(default_planet(), options);
+  ASSERT_TRUE(result) << result.error().message;
+  const nlohmann::json& h = *result;
+  // The lattice is equal-area: the land share is the definition's land fraction.
+  EXPECT_NEAR(h.at("land_share").get<double>(), test::default_definition().land_fraction, 0.03);
+  const nlohmann::json& e = h.at("elevation_m");
+  double previous = e.at("min").get<double>();
+  for (const char* key : {"p10", "p25", "median", "p75", "p90", "max"}) {
+    EXPECT_LE(previous, e.at(key).get<double>()) << key;
+    previous = e.at(key).get<double>();
+  }
+  EXPECT_GT(e.at("mean").get<double>(), e.at("min").get<double>());
+  EXPECT_LT(e.at("mean").get<double>(), e.at("max").get<double>());
+  double share = 0.0;
+  for (const nlohmann::json& below : h.at("land_below")) {
+    EXPECT_GE(below.at("share").get<double>(), share);
+    share = below.at("share").get<double>();
+  }
+  const double integral = h.at("hypsometric_integral").get<double>();
+  EXPECT_GT(integral, 0.0);
+  EXPECT_LT(integral, 1.0);
+  EXPECT_EQ(*planet_hypsometry(default_planet(), options), h);  // reproducible
+}
+
+TEST(PlanetHypsometry, FollowsTheRiversAltitudes) {
+  // Rivers rising to half the altitude put the land lower.
+  PlanetDefinition low = test::default_definition();
+  low.max_river_altitude /= 2.0;
+  PlanetHypsometryOptions options;
+  options.samples = 4000;
+  const auto high = planet_hypsometry(default_planet(), options);
+  const auto lower = planet_hypsometry(Planet::create(low), options);
+  ASSERT_TRUE(high && lower);
+  EXPECT_LT(lower->at("elevation_m").at("median").get<double>(),
+            high->at("elevation_m").at("median").get<double>() - 200.0);
+}
+
+TEST(PlanetHypsometry, RefusesBadOptionsNamingTheField) {
+  for (const auto& [samples, cell, pointer] :
+       std::vector<std::tuple<int, double, std::string>>{{99, 200.0, "/samples"},
+                                                         {2000000, 200.0, "/samples"},
+                                                         {1000, 0.0, "/cell_size"},
+                                                         {1000, NAN, "/cell_size"},
+                                                         {1000, 1e6, "/cell_size"}}) {
+    PlanetHypsometryOptions options;
+    options.samples = samples;
+    options.cell_size = cell;
+    const auto result = planet_hypsometry(default_planet(), options);
+    ASSERT_FALSE(result) << pointer;
+    EXPECT_EQ(result.error().pointer, pointer);
+  }
 }
 
 }  // namespace

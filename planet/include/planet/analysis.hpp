@@ -36,4 +36,19 @@ struct PlanetAnalysisOptions {
 terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Planet>& planet,
                                                const PlanetAnalysisOptions& options);
 
+/// The most samples planet_hypsometry takes.
+inline constexpr int kMaxHypsometrySamples = 1000000;
+
+struct PlanetHypsometryOptions {
+  int samples = 20000;     ///< points of an equal-area (Fibonacci) lattice over the sphere
+  double cell_size = 200;  ///< metres: each point at the level of detail of a tile this fine
+};
+
+/// The land's hypsometry over the whole planet (docs/analysis.md, "Hypsometry"): the ground of
+/// every lattice point that is not sea (rivers and lakes at their beds), its mean, percentiles,
+/// the share below fixed altitudes and the hypsometric integral. Errors name /samples or
+/// /cell_size.
+terrain::Result<nlohmann::json> planet_hypsometry(const std::shared_ptr<const Planet>& planet,
+                                                  const PlanetHypsometryOptions& options);
+
 }  // namespace planet
