@@ -68,6 +68,21 @@ std::optional<long long> integer_arg(const std::string& what, const std::string&
   return v;
 }
 
+// A positive number option (`--cell` metres, `--channel-area` m²), if given: false when it was
+// given badly (reported), else true with `value` set or left as it was.
+bool positive_arg(const Args& args, const std::string& command, const std::string& option,
+                  const char* unit, double& value) {
+  if (!args.has(option)) return true;
+  const auto v = tools::parse_number(args.get(option, ""));
+  if (!v || !(*v > 0)) {
+    std::cerr << "planet " << command << ": " << option << " must be " << unit
+              << " greater than 0\n";
+    return false;
+  }
+  value = *v;
+  return true;
+}
+
 bool write_file(const std::string& path, const std::vector<std::uint8_t>& bytes) {
   std::FILE* file = std::fopen(path.c_str(), "wb");
   return file != nullptr && std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size() &&
@@ -306,21 +321,10 @@ int run(const Args& args) {
     options.longitude = *lon;
     options.size = static_cast<int>(*size);
     options.zoom = static_cast<int>(*zoom);
-    if (args.has("--cell")) {
-      const auto cell = tools::parse_number(args.get("--cell", ""));
-      if (!cell || !(*cell > 0)) {
-        std::cerr << "planet analyze: --cell must be a number of metres greater than 0\n";
-        return 2;
-      }
-      options.cell_size = *cell;
-    }
-    if (args.has("--channel-area")) {
-      const auto area = tools::parse_number(args.get("--channel-area", ""));
-      if (!area || !(*area > 0)) {
-        std::cerr << "planet analyze: --channel-area must be an area in m² greater than 0\n";
-        return 2;
-      }
-      options.analysis.channel_area = *area;
+    if (!positive_arg(args, "analyze", "--cell", "a number of metres", options.cell_size) ||
+        !positive_arg(args, "analyze", "--channel-area", "an area in m²",
+                      options.analysis.channel_area)) {
+      return 2;
     }
     Result<nlohmann::json> figures = analyze_planet(world, options);
     if (!figures) {
@@ -337,13 +341,8 @@ int run(const Args& args) {
         integer_arg("--samples", args.get("--samples", "20000"), 100, kMaxHypsometrySamples);
     if (!samples) return 2;
     options.samples = static_cast<int>(*samples);
-    if (args.has("--cell")) {
-      const auto cell = tools::parse_number(args.get("--cell", ""));
-      if (!cell || !(*cell > 0)) {
-        std::cerr << "planet hypsometry: --cell must be a number of metres greater than 0\n";
-        return 2;
-      }
-      options.cell_size = *cell;
+    if (!positive_arg(args, "hypsometry", "--cell", "a number of metres", options.cell_size)) {
+      return 2;
     }
     Result<nlohmann::json> figures = planet_hypsometry(world, options);
     if (!figures) {
