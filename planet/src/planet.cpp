@@ -64,8 +64,8 @@ double floored_ground(const std::array<const Vertex*, 3>& corner, const std::arr
     ground_slope(level[k]) = {0.0f, 0.0f, 0.0f};
     side[k] = &level[k];
   }
-  const double x = (share - kFloorWidth) / (1.0 - kFloorWidth);
-  return floor + x * x * (3.0 - 2.0 * x) * (clough_tocher(side, w, radius) - floor);
+  return floor + smoothstep((share - kFloorWidth) / (1.0 - kFloorWidth)) *
+                     (clough_tocher(side, w, radius) - floor);
 }
 
 }  // namespace

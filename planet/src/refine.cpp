@@ -74,12 +74,10 @@ Rules::Region Rules::region(const Vec3d& p) const {
   const double ridge2 = ridge * ridge;
   const double belt = ridge2 * ridge2 * ridge2;
   // A tableland: 0 off it, 1 on its top, a smoothstep across its edge, where the escarpment is.
-  double plateau = 0.0;
-  if (def.plateau_height > 0.0) {
-    const double x =
-        std::clamp((field(regional_scale, kPlateauSalt) - kPlateauEdge) / kPlateauRise, 0.0, 1.0);
-    plateau = x * x * (3.0 - 2.0 * x);
-  }
+  const double plateau =
+      def.plateau_height > 0.0
+          ? smoothstep((field(regional_scale, kPlateauSalt) - kPlateauEdge) / kPlateauRise)
+          : 0.0;
   const double scarp = 4.0 * plateau * (1.0 - plateau);
   return {std::exp(def.relief_contrast *
                    (kRegional * v + kBelt * belt + kScarp * scarp - kTableland * plateau - kShift)),
@@ -92,8 +90,7 @@ constexpr double kCoastal = 1.5;
 
 double Rules::coastal_factor(double coast_distance) const {
   if (def.coastal_plain_width <= 0.0 || coast_distance >= def.coastal_plain_width) return 1.0;
-  const double x = coast_distance / def.coastal_plain_width;
-  const double inland = x * x * (3.0 - 2.0 * x);
+  const double inland = smoothstep(coast_distance / def.coastal_plain_width);
   return std::exp(-def.relief_contrast * kCoastal * (1.0 - inland));
 }
 

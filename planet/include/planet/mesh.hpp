@@ -82,6 +82,12 @@ inline bool wet(const Vertex& v) {
   return (v.flags & (kRiver | kCoast | kSea | kLake)) != 0 || v.water > v.ground;
 }
 
+/// 3x² − 2x³ of x clamped to [0, 1]: rises from 0 to 1 with no slope at either end.
+inline double smoothstep(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * (3.0 - 2.0 * x);
+}
+
 /// Metres from a vertex to the nearest sea coast along the mesh (0 on it), from either side.
 inline double coast_distance(const Vertex& v) {
   return (v.flags & kSea) != 0 ? static_cast<double>(v.drainage_area) : 100.0 * v.coast_hm;
