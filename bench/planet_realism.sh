@@ -3,6 +3,7 @@
 # ≤ 2 % of land outside lakes, Flint's law 0.3 ≤ θ ≤ 0.8 with r² ≥ 0.3): `planet analyze` over
 # 512² samples around a land point at the ground spacing of zooms 8, 11 and 14, on the default
 # planet and on the same definition with two other seeds. Definitions: docs/analysis.md.
+# Then the land's hypsometry of the three planets.
 # Usage: bench/planet_realism.sh [BUILD_DIR]   (default build/release)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -43,4 +44,19 @@ print(f"{sys.argv[2]:<12} {sys.argv[3]:>4} {d['input']['cell_size_m']:8.1f} "
       f"{float(sys.argv[4]):8.2f}")
 PY
   done
+done
+# The land's hypsometry over each whole planet (`planet hypsometry`: 20 000 equal-area points at
+# 200 m detail; docs/analysis.md "Hypsometry"). Earth's land averages about 850 m.
+echo
+printf '%-12s %8s %8s %8s %8s %8s %9s\n' planet mean_m median_m '<500m_%' '<1km_%' '<2km_%' integral
+for definition in config/planets/default.json "$work/seed-7.json" "$work/seed-42.json"; do
+  "$planet" hypsometry "$definition" > "$work/hypsometry.json"
+  python3 - "$work/hypsometry.json" "$(basename "$definition" .json)" << 'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+e = d["elevation_m"]
+below = {b["altitude_m"]: 100 * b["share"] for b in d["land_below"]}
+print(f"{sys.argv[2]:<12} {e['mean']:8.0f} {e['median']:8.0f} {below[500]:8.1f} {below[1000]:8.1f} "
+      f"{below[2000]:8.1f} {d['hypsometric_integral']:9.3f}")
+PY
 done
