@@ -101,13 +101,9 @@ terrain::Result<nlohmann::json> planet_hypsometry(const std::shared_ptr<const Pl
   const double octaves = planet->octaves_for_spacing(options.cell_size);
   Sampler sampler(planet);
   std::vector<double> land;
-  // A Fibonacci lattice: n points, each standing for an equal share of the sphere.
-  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
   const int n = options.samples;
   for (int i = 0; i < n; ++i) {
-    const double z = 1.0 - 2.0 * (i + 0.5) / n, r = std::sqrt(1.0 - z * z);
-    const Vec3d p{r * std::cos(golden * i), r * std::sin(golden * i), z};
-    const PointSample s = sampler.at(p, level, octaves);
+    const PointSample s = sampler.at(fibonacci_direction(i, n), level, octaves);
     if (s.type != SurfaceType::sea) land.push_back(s.ground);
   }
   nlohmann::json out;

@@ -58,7 +58,7 @@ constexpr double kRegional = 0.7, kBelt = 1.6, kShift = 0.5, kScarp = 0.8, kTabl
 // Plateaus stand where their field exceeds kPlateauEdge, rising over the next kPlateauRise of it.
 constexpr double kPlateauEdge = 0.3, kPlateauRise = 0.1;
 
-Rules::Region Rules::region(const Vec3d& p) const {
+Rules::Region Rules::region(const Vec3d& p, double coast_distance) const {
   if (def.relief_contrast == 0.0 && def.belt_height == 0.0 && def.plateau_height == 0.0) return {};
   // Regions and plateaus vary at half the belts' spacing; belts follow the zero lines of a second
   // field (the ridges of 1 − |S|), narrowed by a sixth power.
@@ -79,8 +79,9 @@ Rules::Region Rules::region(const Vec3d& p) const {
           ? smoothstep((field(regional_scale, kPlateauSalt) - kPlateauEdge) / kPlateauRise)
           : 0.0;
   const double scarp = 4.0 * plateau * (1.0 - plateau);
-  return {std::exp(def.relief_contrast *
-                   (kRegional * v + kBelt * belt + kScarp * scarp - kTableland * plateau - kShift)),
+  return {std::exp(def.relief_contrast * (kRegional * v + kBelt * belt + kScarp * scarp -
+                                          kTableland * plateau - kShift)) *
+              coastal_factor(coast_distance),
           def.belt_height * belt + def.plateau_height * plateau};
 }
 
@@ -219,12 +220,17 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
                     m.ground - std::max(def.riverbed_edge_height, l_ab * def.min_riverbed_slope));
   };
 
+  // Metres from m to each corner of the diamond, once m is placed.
+  const Vertex* corner[4] = {&a, &b, &t, &d};
+  auto corner_lengths = [&] {
+    std::array<double, 4> length{};
+    for (int i = 0; i < 4; ++i) length[i] = rules.radius * angle(m.p, corner[i]->p);
+    return length;
+  };
   // Land: the distance to the coast through the nearest corner, in the vertex's hectometres.
-  auto reach_coast = [&] {
+  auto reach_coast = [&](const std::array<double, 4>& length) {
     double metres = std::numeric_limits<double>::infinity();
-    for (const Vertex* c : {&a, &b, &t, &d}) {
-      metres = std::min(metres, coast_distance(*c) + rules.radius * angle(m.p, c->p));
-    }
+    for (int i = 0; i < 4; ++i) metres = std::min(metres, coast_distance(*corner[i]) + length[i]);
     m.coast_hm = static_cast<std::uint16_t>(std::min(65535.0, std::round(metres / 100.0)));
   };
 
@@ -247,10 +253,12 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       // than the shelf (half of shelf_depth at the coast, all of it at its edge); beyond, the
       // continental slope keeps it at least kContinentalSlope × the distance past the edge deeper,
       // down to the ocean floor (kAbyssShare of sea_depth), below which it is free.
+      const std::array<double, 4> length = corner_lengths();
       double coast = std::numeric_limits<double>::infinity();
-      for (const Vertex* c : {&a, &b, &t, &d}) {
-        const double from = (c->flags & kSea) != 0 ? static_cast<double>(c->drainage_area) : 0.0;
-        coast = std::min(coast, from + rules.radius * angle(m.p, c->p));
+      for (int i = 0; i < 4; ++i) {
+        const Vertex& c = *corner[i];
+        const double from = (c.flags & kSea) != 0 ? static_cast<double>(c.drainage_area) : 0.0;
+        coast = std::min(coast, from + length[i]);
       }
       m.drainage_area = static_cast<float>(coast);
       if (def.shelf_width > 0.0 && coast < def.shelf_width) {
@@ -274,7 +282,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       m.p = place(eq2);
       m.flags = kLand | kLake;
       m.ground = m.water = 0.5 * (a.water + b.water);
-      reach_coast();
+      reach_coast(corner_lengths());
       return r;
     }
     case EdgeType::lake: {  // the floor under a lake: below the mean of its corners, deeper
@@ -283,7 +291,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       m.water = 0.5 * (a.water + b.water);
       m.ground = std::min(0.25 * (a.ground + b.ground + t.ground + d.ground), m.water - 1.0) -
                  kLakeFloorSlope * l_ab * g1;
-      reach_coast();
+      reach_coast(corner_lengths());
       return r;
     }
     case EdgeType::river: {
@@ -303,7 +311,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       }
       m.p = place(normalize(add(scale(t.p, 1.0 - x), scale(d.p, x))));
       m.flags = kLand | kRiver;
-      reach_coast();
+      reach_coast(corner_lengths());
       m.ground = 0.5 * (a.ground + b.ground);
       m.water = 0.5 * (a.water + b.water);
       m.drainage_area = up.drainage_area;
@@ -324,9 +332,8 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       const double high = a_up ? level_a : level_b, low = a_up ? level_b : level_a;
       m.p = place(offset(kLandOffset));
       m.flags = kLand;
-      reach_coast();
-      m.detail = static_cast<float>(rules.region(m.p).ruggedness *
-                                    rules.coastal_factor(coast_distance(m)));
+      reach_coast(corner_lengths());
+      m.detail = static_cast<float>(rules.region(m.p, coast_distance(m)).ruggedness);
       if (dry_diamond) {
         // On the smooth surface, kept within the middle of the drop.
         m.ground =
@@ -347,10 +354,8 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
 
   // A continent vertex (§5.3 step 6).
   m.p = place(offset(kLandOffset));
-  reach_coast();
-  const Vertex* corner[4] = {&a, &b, &t, &d};
-  double length[4];
-  for (int i = 0; i < 4; ++i) length[i] = rules.radius * angle(m.p, corner[i]->p);
+  const std::array<double, 4> length = corner_lengths();
+  reach_coast(length);
   m.water = 0.25 * (a.water + b.water + t.water + d.water);
 
   // A new river arm: an edge longer than l_rmin may gain a spring that flows to the lowest
@@ -385,10 +390,9 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   }
 
   m.flags = kLand;
-  // The region scales the fractal's roughness here, eq. 5's mountains and the detail below;
-  // coastal plains are smoother.
-  const Rules::Region region = rules.region(m.p);
-  const double rugged = region.ruggedness * rules.coastal_factor(coast_distance(m));
+  // The region scales the fractal's roughness here, eq. 5's mountains and the detail below.
+  const Rules::Region region = rules.region(m.p, coast_distance(m));
+  const double rugged = region.ruggedness;
   m.detail = static_cast<float>(rugged);
   // The estimate: eq. 5 for a mountain vertex between rivers, else the surface under the new
   // position (the smooth one among dry corners, eq. 2's weights beside water) displaced by the

@@ -22,11 +22,7 @@ PlanetDefinition with_contrast(double contrast) {
 // Directions spread over the sphere (a Fibonacci lattice).
 std::vector<Vec3d> directions(int n) {
   std::vector<Vec3d> out;
-  const double golden = std::acos(-1.0) * (3.0 - std::sqrt(5.0));
-  for (int i = 0; i < n; ++i) {
-    const double z = 1.0 - 2.0 * (i + 0.5) / n, r = std::sqrt(1.0 - z * z);
-    out.push_back({r * std::cos(golden * i), r * std::sin(golden * i), z});
-  }
+  for (int i = 0; i < n; ++i) out.push_back(fibonacci_direction(i, n));
   return out;
 }
 

@@ -23,6 +23,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -144,7 +145,10 @@ struct Rules {
     /// plateau_height on a plateau, 0 away from both.
     double uplift = 0.0;
   };
-  Region region(const Vec3d& p) const;
+  /// `coast_distance`: metres from the coast (coast_distance(vertex)); on the coastal plains the
+  /// ruggedness is smaller by coastal_factor. The default is inland.
+  Region region(const Vec3d& p,
+                double coast_distance = std::numeric_limits<double>::infinity()) const;
   /// Factor of the ruggedness at a distance (metres) from the coast: below 1 on the coastal
   /// plains within coastal_plain_width, 1 beyond (planet.md "Relief regions").
   double coastal_factor(double coast_distance) const;
@@ -259,6 +263,14 @@ inline double det(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
   return dot(cross(a, b), c);
 }
 Vec3d normalize(const Vec3d& a);
+/// Point i of n on a Fibonacci lattice over the unit sphere: every point stands for an equal
+/// share of the sphere's area.
+inline Vec3d fibonacci_direction(int i, int n) {
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  const double z = 1.0 - 2.0 * (i + 0.5) / n, r = std::sqrt(1.0 - z * z);
+  return {r * std::cos(golden * i), r * std::sin(golden * i), z};
+}
+
 /// The unit sphere's area (steradians).
 inline constexpr double kFourPi = 4.0 * std::numbers::pi;
 /// Area of the spherical triangle (a, b, c) on the unit sphere: the excess E, with
