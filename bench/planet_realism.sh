@@ -24,7 +24,9 @@ seeded() {
 planets=("default config/planets/default.json 5 -175" "seed-7 $(seeded 7) 5 -165"
   "seed-42 $(seeded 42) 5 -175" "plateau config/planets/default.json -35 110"
   "escarpment config/planets/default.json -32 105" "coastal config/planets/default.json -35 98.6")
-printf '%-12s %4s %8s %8s %8s %7s %6s %6s %8s\n' planet zoom cell_m pits_% closed_% theta r2 R_b seconds
+# channel_km2: the channel threshold the drop analysis chose (docs/analysis.md), * where no
+# candidate kept a constant drop and it is 1% of the square.
+printf '%-12s %4s %8s %8s %8s %7s %6s %6s %12s %8s\n' planet zoom cell_m pits_% closed_% theta r2 R_b channel_km2 seconds
 for entry in "${planets[@]}"; do
   read -r name definition lat lon <<< "$entry"
   for zoom in 8 11 14; do
@@ -38,10 +40,14 @@ f = d["flint"] or {}
 def fmt(v, spec):
     return format(v, spec) if isinstance(v, (int, float)) else "-"
 rb = d["strahler"]["bifurcation_ratio"]
+channels = d["channels"]
+threshold = f"{channels['area_threshold_m2'] / 1e6:.4g}"
+if channels["threshold_rule"] != "constant drop":
+    threshold += "*"
 print(f"{sys.argv[2]:<12} {sys.argv[3]:>4} {d['input']['cell_size_m']:8.1f} "
       f"{100 * d['pits']['share']:8.3f} {100 * d['closed_depression_share']:8.2f} "
       f"{fmt(f.get('theta'), '7.3f'):>7} {fmt(f.get('r_squared'), '6.3f'):>6} {fmt(rb, '6.2f'):>6} "
-      f"{float(sys.argv[4]):8.2f}")
+      f"{threshold:>12} {float(sys.argv[4]):8.2f}")
 PY
   done
 done

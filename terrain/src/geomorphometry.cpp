@@ -44,9 +44,132 @@ std::optional<Line> fit_line(const std::vector<double>& x, const std::vector<dou
   return line;
 }
 
+/// The Strahler streams of one channel network: a stream of order ω starts at each channel cell
+/// of order ω that no donor of order ω flows into and runs down its receivers while they stay
+/// channel cells of order ω.
+struct StreamNetwork {
+  std::vector<std::int64_t> streams_per_order;  ///< [ω − 1] = number of streams of order ω
+  /// Drop of each complete stream (filled elevation at its start minus at the cell it ends in:
+  /// the junction with a higher order or the sea), by order; streams the grid's edge cuts off
+  /// are left out, their drop being the window's, not the river's.
+  std::vector<std::vector<double>> drops_per_order;
+};
+
+StreamNetwork trace_streams(const Drainage& d, const std::vector<std::uint8_t>& channel) {
+  const std::size_t n = d.cells();
+  const std::vector<int> strahler = strahler_orders(d.receiver, d.order, channel);
+  std::vector<std::uint8_t> continued(n, 0);
+  int max_order = 0;
+  for (std::size_t c = 0; c < n; ++c) {
+    if (channel[c] == 0) continue;
+    max_order = std::max(max_order, strahler[c]);
+    const std::int32_t r = d.receiver[c];
+    if (r < 0) continue;
+    const auto rc = static_cast<std::size_t>(r);
+    if (channel[rc] != 0 && strahler[rc] == strahler[c]) continued[rc] = 1;
+  }
+  StreamNetwork network;
+  network.streams_per_order.assign(static_cast<std::size_t>(max_order), 0);
+  network.drops_per_order.resize(static_cast<std::size_t>(max_order));
+  for (std::size_t c = 0; c < n; ++c) {
+    if (channel[c] == 0 || continued[c] != 0) continue;
+    const int order = strahler[c];
+    ++network.streams_per_order[static_cast<std::size_t>(order - 1)];
+    std::size_t last = c;
+    std::int32_t next = d.receiver[last];
+    while (next >= 0 && channel[static_cast<std::size_t>(next)] != 0 &&
+           strahler[static_cast<std::size_t>(next)] == order) {
+      last = static_cast<std::size_t>(next);
+      next = d.receiver[last];
+    }
+    if (next < 0) continue;  // ends on the grid's edge
+    network.drops_per_order[static_cast<std::size_t>(order - 1)].push_back(
+        d.filled[c] - d.filled[static_cast<std::size_t>(next)]);
+  }
+  return network;
+}
+
+/// Horton's R_b = 10^(−slope) of log10 N_ω against ω; none below order 2.
+std::optional<double> bifurcation_ratio(const std::vector<std::int64_t>& streams_per_order) {
+  if (streams_per_order.size() < 2) return std::nullopt;
+  std::vector<double> orders, log_count;
+  for (std::size_t k = 0; k < streams_per_order.size(); ++k) {
+    orders.push_back(static_cast<double>(k + 1));
+    log_count.push_back(std::log10(static_cast<double>(streams_per_order[k])));
+  }
+  const std::optional<Line> line = fit_line(orders, log_count, 2);
+  if (!line) return std::nullopt;
+  return std::pow(10.0, -line->slope);
+}
+
+/// Fewer complete streams than this on a side leave a candidate untested: a t of so few says
+/// nothing.
+constexpr std::size_t kDropMinStreams = 5;
+
+/// The first-order streams' drops and the higher orders' together.
+struct DropSamples {
+  std::vector<double> first;
+  std::vector<double> higher;
+};
+
+DropSamples drop_samples(const StreamNetwork& network) {
+  DropSamples samples;
+  for (std::size_t k = 0; k < network.drops_per_order.size(); ++k) {
+    std::vector<double>& side = k == 0 ? samples.first : samples.higher;
+    side.insert(side.end(), network.drops_per_order[k].begin(), network.drops_per_order[k].end());
+  }
+  return samples;
+}
+
+double mean(const std::vector<double>& v) {
+  double sum = 0.0;
+  for (const double x : v) sum += x;
+  return v.empty() ? 0.0 : sum / static_cast<double>(v.size());
+}
+
+double squared_deviations(const std::vector<double>& v, double mean) {
+  double ss = 0.0;
+  for (const double x : v) ss += (x - mean) * (x - mean);
+  return ss;
+}
+
+/// Student's two-sample t of the first-order streams' mean drop against the higher orders'
+/// (pooled variance); none with fewer than kDropMinStreams complete streams on either side.
+std::optional<double> drop_t_statistic(const DropSamples& s) {
+  if (s.first.size() < kDropMinStreams || s.higher.size() < kDropMinStreams) return std::nullopt;
+  const double m1 = mean(s.first);
+  const double m2 = mean(s.higher);
+  const auto n1 = static_cast<double>(s.first.size());
+  const auto n2 = static_cast<double>(s.higher.size());
+  const double pooled =
+      (squared_deviations(s.first, m1) + squared_deviations(s.higher, m2)) / (n1 + n2 - 2.0);
+  const double se = std::sqrt(pooled * (1.0 / n1 + 1.0 / n2));
+  if (!(se > 0.0)) return std::nullopt;
+  return (m1 - m2) / se;
+}
+
+std::vector<std::uint8_t> channel_cells(const Drainage& d, double channel_area) {
+  std::vector<std::uint8_t> channel(d.cells(), 0);
+  for (std::size_t c = 0; c < d.cells(); ++c) {
+    channel[c] = d.land[c] != 0 && d.area[c] >= channel_area ? 1 : 0;
+  }
+  return channel;
+}
+
+/// The candidate thresholds of the drop analysis: kDropThresholds areas spaced evenly in log
+/// from kDropMinCells cells to kDropMaxShare of the grid's area.
+constexpr int kDropThresholds = 16;
+constexpr double kDropMinCells = 25.0;
+constexpr double kDropMaxShare = 0.05;
+/// The channel threshold, as a share of the grid's area, where no candidate keeps a constant drop.
+constexpr double kFallbackChannelShare = 0.01;
+/// |t| below this: the first-order streams' mean drop does not differ from the higher orders'.
+constexpr double kDropCriticalT = 2.0;
+
 Status validate(const AnalysisOptions& options) {
   if (!std::isfinite(options.channel_area) || options.channel_area < 0.0) {
-    return Error{"must be a finite area in m² (0 for 1% of the grid's area)", "/channel_area"};
+    return Error{"must be a finite area in m² (0 to let the drop analysis choose)",
+                 "/channel_area"};
   }
   if (!std::isfinite(options.depression_epsilon) || options.depression_epsilon < 0.0) {
     return Error{"must be a finite number of metres, at least 0", "/depression_epsilon"};
@@ -55,6 +178,41 @@ Status validate(const AnalysisOptions& options) {
 }
 
 }  // namespace
+
+std::vector<DropTest> drop_analysis(const Drainage& d) {
+  const double cell_area = d.cell_size * d.cell_size;
+  const double lo = kDropMinCells * cell_area;
+  const double hi = kDropMaxShare * static_cast<double>(d.cells()) * cell_area;
+  std::vector<DropTest> table;
+  for (int k = 0; k < kDropThresholds; ++k) {
+    const double f = static_cast<double>(k) / static_cast<double>(kDropThresholds - 1);
+    DropTest test;
+    test.channel_area = lo * std::pow(hi / lo, f);
+    const StreamNetwork network = trace_streams(d, channel_cells(d, test.channel_area));
+    test.streams_per_order = network.streams_per_order;
+    test.bifurcation_ratio = bifurcation_ratio(network.streams_per_order);
+    const DropSamples samples = drop_samples(network);
+    test.first_order_streams = static_cast<std::int64_t>(samples.first.size());
+    test.first_order_mean_drop = mean(samples.first);
+    test.higher_order_streams = static_cast<std::int64_t>(samples.higher.size());
+    test.higher_order_mean_drop = mean(samples.higher);
+    test.t = drop_t_statistic(samples);
+    table.push_back(std::move(test));
+  }
+  return table;
+}
+
+std::optional<double> constant_drop_threshold(std::span<const DropTest> table) {
+  // At small thresholds t changes sign as the networks grow and passes by chance where it
+  // crosses zero, so the candidate must pass along with every larger testable one.
+  std::optional<double> chosen;
+  for (auto test = table.rbegin(); test != table.rend(); ++test) {
+    if (!test->t) continue;
+    if (std::abs(*test->t) >= kDropCriticalT) break;
+    chosen = test->channel_area;
+  }
+  return chosen;
+}
 
 Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options) {
   if (Status valid = validate(options); !valid) return valid.error();
@@ -80,9 +238,19 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
   g.cell_size = d.cell_size;
   g.depression_epsilon = options.depression_epsilon;
   const double cell_area = d.cell_size * d.cell_size;
-  g.channel_area = options.channel_area > 0.0
-                       ? options.channel_area
-                       : 0.01 * static_cast<double>(w) * static_cast<double>(h) * cell_area;
+  if (options.channel_area > 0.0) {
+    g.channel_area = options.channel_area;
+    g.channel_threshold = ChannelThreshold::given;
+  } else {
+    g.drop_analysis = drop_analysis(d);
+    if (const std::optional<double> area = constant_drop_threshold(g.drop_analysis)) {
+      g.channel_area = *area;
+      g.channel_threshold = ChannelThreshold::constant_drop;
+    } else {
+      g.channel_area = kFallbackChannelShare * static_cast<double>(n) * cell_area;
+      g.channel_threshold = ChannelThreshold::share_of_area;
+    }
+  }
 
   // Land, elevation range, pits and closed depressions.
   double sum = 0.0;
@@ -127,11 +295,10 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
   }
 
   // Channels: their length, and Flint's law on the raw surface.
-  std::vector<std::uint8_t> channel(n, 0);
+  const std::vector<std::uint8_t> channel = channel_cells(d, g.channel_area);
   std::vector<double> log_area, log_slope;
   for (std::size_t c = 0; c < n; ++c) {
-    if (d.land[c] == 0 || d.area[c] < g.channel_area) continue;
-    channel[c] = 1;
+    if (channel[c] == 0) continue;
     ++g.channel_cells;
     const std::int32_t r = d.receiver[c];
     if (r < 0) continue;
@@ -155,37 +322,23 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
                        static_cast<std::int64_t>(log_area.size())};
   }
 
-  // Strahler orders; a stream of order ω starts at each channel cell of order ω that no donor
-  // of order ω flows into.
-  const std::vector<int> strahler = strahler_orders(d.receiver, d.order, channel);
-  std::vector<std::uint8_t> continued(n, 0);
-  for (std::size_t c = 0; c < n; ++c) {
-    const std::int32_t r = d.receiver[c];
-    if (channel[c] == 0 || r < 0) continue;
-    const auto rc = static_cast<std::size_t>(r);
-    if (channel[rc] != 0 && strahler[rc] == strahler[c]) continued[rc] = 1;
-  }
-  for (std::size_t c = 0; c < n; ++c) {
-    if (channel[c] == 0) continue;
-    g.max_strahler_order = std::max(g.max_strahler_order, strahler[c]);
-  }
-  g.streams_per_order.assign(static_cast<std::size_t>(g.max_strahler_order), 0);
-  for (std::size_t c = 0; c < n; ++c) {
-    if (channel[c] != 0 && continued[c] == 0) {
-      ++g.streams_per_order[static_cast<std::size_t>(strahler[c] - 1)];
-    }
-  }
-  if (g.max_strahler_order >= 2) {
-    std::vector<double> orders, log_count;
-    for (std::size_t k = 0; k < g.streams_per_order.size(); ++k) {
-      orders.push_back(static_cast<double>(k + 1));
-      log_count.push_back(std::log10(static_cast<double>(g.streams_per_order[k])));
-    }
-    if (const std::optional<Line> line = fit_line(orders, log_count, 2)) {
-      g.bifurcation_ratio = std::pow(10.0, -line->slope);
-    }
-  }
+  const StreamNetwork network = trace_streams(d, channel);
+  g.max_strahler_order = static_cast<int>(network.streams_per_order.size());
+  g.streams_per_order = network.streams_per_order;
+  g.bifurcation_ratio = bifurcation_ratio(network.streams_per_order);
   return g;
+}
+
+std::string_view threshold_rule_name(ChannelThreshold rule) {
+  switch (rule) {
+    case ChannelThreshold::given:
+      return "given";
+    case ChannelThreshold::constant_drop:
+      return "constant drop";
+    case ChannelThreshold::share_of_area:
+      return "1% of the area";
+  }
+  return "";
 }
 
 nlohmann::json to_json(const Geomorphometry& g) {
@@ -199,6 +352,18 @@ nlohmann::json to_json(const Geomorphometry& g) {
              {"r_squared", g.flint->r_squared},
              {"cells", g.flint->cells}};
   }
+  nlohmann::json drops = nlohmann::json::array();
+  for (const DropTest& test : g.drop_analysis) {
+    drops.push_back(
+        {{"area_threshold_m2", test.channel_area},
+         {"streams_per_order", test.streams_per_order},
+         {"bifurcation_ratio", optional(test.bifurcation_ratio)},
+         {"first_order",
+          {{"streams", test.first_order_streams}, {"mean_drop_m", test.first_order_mean_drop}}},
+         {"higher_order",
+          {{"streams", test.higher_order_streams}, {"mean_drop_m", test.higher_order_mean_drop}}},
+         {"t", optional(test.t)}});
+  }
   return {
       {"grid", {{"width", g.width}, {"height", g.height}, {"cell_size_m", g.cell_size}}},
       {"land_cells", g.land_cells},
@@ -211,9 +376,11 @@ nlohmann::json to_json(const Geomorphometry& g) {
       {"closed_depression_share", g.closed_depression_share},
       {"channels",
        {{"area_threshold_m2", g.channel_area},
+        {"threshold_rule", threshold_rule_name(g.channel_threshold)},
         {"cells", g.channel_cells},
         {"length_m", g.channel_length},
-        {"max_drainage_area_m2", g.max_drainage_area}}},
+        {"max_drainage_area_m2", g.max_drainage_area},
+        {"drop_analysis", drops}}},
       {"drainage_density_per_km", g.drainage_density},
       {"flint", flint},
       {"strahler",

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -190,6 +191,79 @@ TEST(Geomorphometry, ASyntheticStreamPowerSurfaceFollowsFlintsLaw) {
   EXPECT_NEAR(g.drainage_density, (h - 4) * cell / (w * h * cell * cell) * 1e3, 1e-12);
 }
 
+// The same valley: its one stream leaves by the grid's edge, which cuts its drop, so no
+// candidate of the drop analysis has a complete stream and the threshold falls back to 1%.
+TEST(Geomorphometry, AStreamTheGridsEdgeCutsOffHasNoDrop) {
+  const int w = 41, h = 301, valley = 20;
+  const double cell = 30.0;
+  const std::vector<float> z =
+      make_grid(w, h, [&](int i, int j) { return 3.0 * j + cell * std::abs(i - valley); });
+  const Geomorphometry g = analyze_or_die({w, h, cell, z});
+  ASSERT_EQ(g.drop_analysis.size(), 16u);
+  for (const DropTest& test : g.drop_analysis) {
+    EXPECT_EQ(test.streams_per_order, std::vector<std::int64_t>{1}) << test.channel_area;
+    EXPECT_EQ(test.first_order_streams, 0);
+    EXPECT_FALSE(test.t.has_value());
+  }
+  EXPECT_EQ(g.channel_threshold, ChannelThreshold::share_of_area);
+  EXPECT_DOUBLE_EQ(g.channel_area, 0.01 * w * h * cell * cell);
+}
+
+// The valley again, ending in a sea three rows deep: its stream is complete, and drops from
+// the highest valley cell draining a candidate's area to the sea cell it flows into.
+TEST(Geomorphometry, AStreamEndingInTheSeaDropsFromItsHeadToTheSea) {
+  const int w = 41, h = 301, valley = 20;
+  const double cell = 30.0, sea_floor = -5.0;
+  // A bed falling a tenth of the hillslopes' fall per cell: they drain straight across into it.
+  auto bed = [&](int j) { return 3.0 * (j - 2); };
+  const std::vector<float> z = make_grid(w, h, [&](int i, int j) {
+    return j <= 2 ? sea_floor : bed(j) + cell * std::abs(i - valley);
+  });
+  const Geomorphometry g = analyze_or_die({w, h, cell, z, 0.0f});
+  ASSERT_EQ(g.drop_analysis.size(), 16u);
+  // Candidates from 25 cells to 5% of the grid's area, evenly spaced in log.
+  const double cell_area = cell * cell;
+  EXPECT_DOUBLE_EQ(g.drop_analysis.front().channel_area, 25 * cell_area);
+  EXPECT_NEAR(g.drop_analysis.back().channel_area, 0.05 * w * h * cell_area, 1e-6);
+  const double step = g.drop_analysis[1].channel_area / g.drop_analysis[0].channel_area;
+  for (std::size_t k = 1; k < g.drop_analysis.size(); ++k) {
+    EXPECT_NEAR(g.drop_analysis[k].channel_area / g.drop_analysis[k - 1].channel_area, step, 1e-9);
+  }
+  for (const DropTest& test : g.drop_analysis) {
+    // Valley cell j drains its own row and every row above it but the edge's: (W − 2)(H − 1 − j)
+    // cells; the hillslopes drain at most 20 cells each.
+    int head = h - 2;
+    while ((w - 2) * (h - 1 - head) * cell_area < test.channel_area) --head;
+    ASSERT_GE(head, 3);
+    EXPECT_EQ(test.streams_per_order, std::vector<std::int64_t>{1}) << test.channel_area;
+    EXPECT_EQ(test.first_order_streams, 1);
+    EXPECT_NEAR(test.first_order_mean_drop, bed(head) - sea_floor, 1e-9) << test.channel_area;
+    EXPECT_EQ(test.higher_order_streams, 0);
+    EXPECT_FALSE(test.t.has_value());  // one stream is no sample
+  }
+}
+
+/// A drop analysis table whose candidates have these t statistics (none: untested).
+std::vector<DropTest> drop_table(const std::vector<std::optional<double>>& t) {
+  std::vector<DropTest> table(t.size());
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    table[k].channel_area = 100.0 * static_cast<double>(k + 1);
+    table[k].t = t[k];
+  }
+  return table;
+}
+
+TEST(Geomorphometry, TheDropAnalysisChoosesTheSmallestThresholdFromWhichTheDropStaysConstant) {
+  using T = std::optional<double>;
+  // 1.6 passes only where t crosses zero between two failures.
+  EXPECT_EQ(constant_drop_threshold(drop_table({3.3, 1.6, -3.1, -0.3, T{}, 0.1, 1.9, T{}})), 400.0);
+  EXPECT_EQ(constant_drop_threshold(drop_table({-1.0, 0.5})), 100.0);
+  // The largest testable candidate fails, or none can be tested: no choice.
+  EXPECT_EQ(constant_drop_threshold(drop_table({-0.3, 0.2, -2.5, T{}})), std::nullopt);
+  EXPECT_EQ(constant_drop_threshold(drop_table({T{}, T{}})), std::nullopt);
+  EXPECT_EQ(constant_drop_threshold({}), std::nullopt);
+}
+
 TEST(Geomorphometry, AConfluenceOfTwoFirstOrderStreamsHasOrderTwo) {
   // 0 ─┐
   //    2 ── 3 ── outlet      (a Y)
@@ -351,6 +425,18 @@ TEST(Geomorphometry, TheCliAnalyzesAnExampleScene) {
   expect_sane_figures(j, 128);
   EXPECT_EQ(j["input"]["kind"], "scene");
   EXPECT_EQ(j["input"]["water_cells"], 0);
+  // No --channel-area: the drop analysis chose one of its candidates, or fell back to 1%.
+  const nlohmann::json& channels = j["channels"];
+  ASSERT_EQ(channels["drop_analysis"].size(), 16u);
+  if (channels["threshold_rule"] == "constant drop") {
+    bool candidate = false;
+    for (const auto& row : channels["drop_analysis"]) {
+      candidate = candidate || row["area_threshold_m2"] == channels["area_threshold_m2"];
+    }
+    EXPECT_TRUE(candidate);
+  } else {
+    EXPECT_EQ(channels["threshold_rule"], "1% of the area");
+  }
 }
 
 TEST(Geomorphometry, TheCliCountsNoPitsOrDepressionsUnderTheWaterLayer) {

@@ -6,6 +6,8 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -16,8 +18,9 @@
 namespace terrain {
 
 struct AnalysisOptions {
-  /// Cells draining at least this many m² are channel cells; 0 means 1% of the grid's area
-  /// (width · height · cell_size²).
+  /// Cells draining at least this many m² are channel cells; 0 lets the drop analysis choose
+  /// (drop_analysis, constant_drop_threshold), or 1% of the grid's area (width · height ·
+  /// cell_size²) where no candidate keeps a constant drop.
   double channel_area = 0.0;
   /// A land cell is in a closed depression when filling raises it by more than this (metres).
   double depression_epsilon = 1e-3;
@@ -31,6 +34,27 @@ struct FlintFit {
   std::int64_t cells = 0;  ///< channel cells in the fit
 };
 
+/// One row of the drop analysis (Tarboton, Bras & Rodríguez-Iturbe 1991): the network that a
+/// candidate channel threshold extracts, and whether its streams keep Broscoe's constant drop.
+struct DropTest {
+  double channel_area = 0.0;  ///< m²
+  std::vector<std::int64_t> streams_per_order;
+  std::optional<double> bifurcation_ratio;
+  std::int64_t first_order_streams = 0;   ///< complete ones (not cut by the grid's edge)
+  double first_order_mean_drop = 0.0;     ///< metres
+  std::int64_t higher_order_streams = 0;  ///< complete ones of order 2 and above
+  double higher_order_mean_drop = 0.0;    ///< metres
+  std::optional<double> t;  ///< Student's t of the two means; none with under 2 on a side
+};
+
+/// How the channel threshold was set.
+enum class ChannelThreshold {
+  given,          ///< AnalysisOptions::channel_area
+  constant_drop,  ///< chosen by the drop analysis
+  share_of_area,  ///< 1% of the grid's area: no candidate kept a constant drop
+};
+std::string_view threshold_rule_name(ChannelThreshold rule);
+
 struct Geomorphometry {
   int width = 0;
   int height = 0;
@@ -39,11 +63,14 @@ struct Geomorphometry {
   std::int64_t wet_cells = 0;  ///< land cells under a lake or river (ElevationGrid::wet)
   /// Interior dry land cells with no lower D8 neighbour (raw).
   std::int64_t pits = 0;
-  double pit_share = 0.0;             ///< pits / dry land cells
-  double depression_epsilon = 0.0;    ///< metres, the threshold used
-  std::int64_t depression_cells = 0;  ///< dry land cells raised by filling > depression_epsilon
+  double pit_share = 0.0;                ///< pits / dry land cells
+  double depression_epsilon = 0.0;       ///< metres, the threshold used
+  std::int64_t depression_cells = 0;     ///< dry land cells raised by filling > depression_epsilon
   double closed_depression_share = 0.0;  ///< depression_cells / dry land cells
   double channel_area = 0.0;             ///< threshold used, m²
+  ChannelThreshold channel_threshold = ChannelThreshold::given;
+  /// The candidates the threshold was chosen from; empty when the options gave it.
+  std::vector<DropTest> drop_analysis;
   std::int64_t channel_cells = 0;
   double max_drainage_area = 0.0;  ///< m², the largest over land cells
   std::optional<FlintFit> flint;   ///< none with fewer than 3 cells or no spread in area
@@ -67,6 +94,15 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions&
 /// The same from a routing already made (`grid` must be the one `drainage` was routed from).
 Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& drainage,
                                const AnalysisOptions& options = {});
+
+/// The drop analysis of a routed grid: the networks that 16 candidate thresholds,
+/// spaced evenly in log from 25 cells to 5% of the grid's area, extract, each with its
+/// Strahler streams and the t-test of Broscoe's constant drop (docs/analysis.md).
+std::vector<DropTest> drop_analysis(const Drainage& drainage);
+
+/// The smallest candidate threshold whose streams keep a constant drop (|t| < 2) along with
+/// every larger candidate that has a t; none when the largest testable one fails or none has a t.
+std::optional<double> constant_drop_threshold(std::span<const DropTest> table);
 
 /// The figures as JSON; field names and definitions are in docs/analysis.md. Figures that are
 /// undefined (no fit, order below 2, flat land) are null.
