@@ -363,12 +363,21 @@ class Classifier {
     // are spread evenly) and everything upstream.
     const double share = kFourPi * radius * radius / static_cast<double>(nv);
     std::vector<double> area(nv, 0.0);
+    // Flint's law shares the rise out: each edge's part of the way up to the farthest spring
+    // upstream weighs its length times A^−θ (θ = river_concavity), so edges that drain more rise
+    // less. `weighted[v]` sums that weight from v's edge up to that spring; the donor with the
+    // longest way up (the first in visit order on a tie) passes its sum down.
+    const double theta = def_.river_concavity;
+    const auto flint_weight = [&](double drainage) { return std::pow(drainage, -theta); };
+    std::vector<double> weighted(nv, 0.0), weighted_above(nv, 0.0);
     for (std::size_t i = bfs.size(); i-- > 0;) {
       const std::uint32_t v = bfs[i];
       longest[v] = std::max(longest[v], distance[v]);
       area[v] += share;
       if (down_[v] >= 0) {
         const auto u = static_cast<std::size_t>(down_[v]);
+        weighted[v] = (distance[v] - distance[u]) * flint_weight(area[v]) + weighted_above[v];
+        if (longest[v] > longest[u]) weighted_above[u] = weighted[v];
         longest[u] = std::max(longest[u], longest[v]);
         area[u] += area[v];
       }
@@ -400,12 +409,17 @@ class Classifier {
       const Vertex& y = vertex(u);
       const double le = distance[v] - distance[u];
       const double target = sea + def_.max_river_altitude * std::min(1.0, longest[v] / full_length);
-      const double remaining = std::max(longest[v] - distance[u], le);
-      // Eq. 3/4: rise by the average elevation per metre times a random factor, at least the
-      // minimum river slope, and never above a_max_river.
+      // Eq. 3/4: rise by this edge's share of what is left up to the spring (by length, or by
+      // Flint's weights) times a random factor, at least the least river slope, and never above
+      // a_max_river. The least slope falls below s_r where the river drains more than
+      // river_slope_area.
+      const double share_here = weighted[v] > 0.0 ? le * flint_weight(area[v]) / weighted[v]
+                                                  : le / std::max(longest[v] - distance[u], le);
+      const double least =
+          def_.min_river_slope * std::min(1.0, std::pow(area[v] / def_.river_slope_area, -theta));
       const double rise =
-          std::max(def_.min_river_slope, 2.0 * random_.uniform() * (target - y.water) / remaining);
-      x.water = std::max(std::min(y.water + le * rise, top), y.water + le * def_.min_river_slope);
+          std::max(least, 2.0 * random_.uniform() * (target - y.water) * share_here / le);
+      x.water = std::max(std::min(y.water + le * rise, top), y.water + le * least);
       x.ground = x.water - depth_for(v);
       mesh_.stats.longest_river = std::max(mesh_.stats.longest_river, longest[v]);
     }

@@ -62,6 +62,8 @@ const std::vector<NumberField>& number_fields() {
       {"aridity", &PlanetDefinition::aridity, 0.0, 1.0, false, true},
       {"shelf_width", &PlanetDefinition::shelf_width, 0.0, 1000000.0, false, true},
       {"shelf_depth", &PlanetDefinition::shelf_depth, 1.0, 2000.0, false, true},
+      {"river_concavity", &PlanetDefinition::river_concavity, 0.0, 1.0, false, true},
+      {"river_slope_area", &PlanetDefinition::river_slope_area, 1.0, 1e14, false, true},
   };
   return table;
 }

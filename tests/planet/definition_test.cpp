@@ -72,6 +72,8 @@ TEST(PlanetDefinition, BadDefinitionsAreRejectedNamingTheField) {
       {R"({"belt_height": "high"})", "/belt_height"},
       {R"({"belt_height": 50000})", "/belt_height"},
       {R"({"plateau_height": -100})", "/plateau_height"},
+      {R"({"river_concavity": 1.5})", "/river_concavity"},
+      {R"({"river_slope_area": 0})", "/river_slope_area"},
       {R"({"coastal_plain_width": 3e6})", "/coastal_plain_width"},
       {R"({"coastal_plain_width": null})", "/coastal_plain_width"},
       {R"({"lakes": -1})", "/lakes"},
@@ -154,6 +156,8 @@ TEST(PlanetDefinition, FieldsAddedLaterAreInTheIdOnlyWhenTheyDifferFromTheDefaul
       {"aridity", 0.35, 1.0},
       {"shelf_width", 80000.0, 0.0},
       {"shelf_depth", 130.0, 200.0},
+      {"river_concavity", 0.5, 0.0},
+      {"river_slope_area", 1e9, 1e10},
   };
   Result<PlanetDefinition> plain = parse_planet_text(R"({"seed": 7})");
   ASSERT_TRUE(plain.ok());

@@ -45,12 +45,18 @@ struct PlanetDefinition {
   double max_mountain_altitude = 10000;  ///< a_max_mountain above sea level (13 km − 3 km)
   double river_depth = 300.0;            ///< ε_river, depth of a river at its mouth
   double min_river_length = 200000.0;    ///< l_rmin: new river arms only on longer edges
-  double min_river_slope = 0.001;        ///< s_r (1 m/km)
-  double min_riverbed_slope = 0.3;       ///< s_rb (300 m/km)
-  double min_slope_near_river = 0.001;   ///< s_p (1 m/km)
-  double riverbed_edge_height = 10.0;    ///< ε_rb
-  double max_ground_slope = 1.0;         ///< s_g (1000 m/km)
-  double mountain_slope = 0.012;         ///< e_m of eq. 5 (not in Table 2)
+  double min_river_slope = 0.001;        ///< s_r (1 m/km) at river_slope_area
+  /// Flint's law for the base network's rivers (planet.md "Base mesh"): their least slope is
+  /// s_r · (A / river_slope_area)^−θ where they drain A > river_slope_area, and the rise to a
+  /// spring is shared out along the river in proportion to A^−θ, so profiles are concave —
+  /// steep headwaters, gentle lowlands. θ = river_concavity; 0 gives the paper's straight ones.
+  double river_concavity = 0.5;
+  double river_slope_area = 1e9;        ///< m² (1 000 km²)
+  double min_riverbed_slope = 0.3;      ///< s_rb (300 m/km)
+  double min_slope_near_river = 0.001;  ///< s_p (1 m/km)
+  double riverbed_edge_height = 10.0;   ///< ε_rb
+  double max_ground_slope = 1.0;        ///< s_g (1000 m/km)
+  double mountain_slope = 0.012;        ///< e_m of eq. 5 (not in Table 2)
   /// Every new land vertex stands at least this slope above the neighbour it drains to (not in
   /// the paper): the surface has no pits at any level (planet.md "Drainage at every level").
   double min_drain_slope = 0.03;

@@ -39,8 +39,9 @@ namespace terrain {
 /// (ruggedness, mountain belts); shaded PNGs (colour tiles, pictures) are deflated by Huffman
 /// coding alone. 12: planets have lakes, open and closed (lake faces, a `lake` surface type), and
 /// continental shelves and slopes on a deeper ocean floor. 13: planets have plateaus and coastal
-/// plains (land vertices carry their distance to the coast).
-inline constexpr int kProductGeneration = 13;
+/// plains (land vertices carry their distance to the coast). 14: planets' base rivers have
+/// concave profiles by Flint's law (river_concavity, river_slope_area).
+inline constexpr int kProductGeneration = 14;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
