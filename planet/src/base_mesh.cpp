@@ -413,8 +413,8 @@ class Classifier {
       // Flint's weights) times a random factor, at least the least river slope, and never above
       // a_max_river. The least slope falls below s_r where the river drains more than
       // river_slope_area.
-      const double share_here = weighted[v] > 0.0 ? le * flint_weight(area[v]) / weighted[v]
-                                                  : le / std::max(longest[v] - distance[u], le);
+      // weighted[v] holds this edge's own weight, so it is positive and the share at most 1.
+      const double share_here = le * flint_weight(area[v]) / weighted[v];
       const double least =
           def_.min_river_slope * std::min(1.0, std::pow(area[v] / def_.river_slope_area, -theta));
       const double rise =

@@ -44,7 +44,7 @@ struct DropTest {
   double first_order_mean_drop = 0.0;     ///< metres
   std::int64_t higher_order_streams = 0;  ///< complete ones of order 2 and above
   double higher_order_mean_drop = 0.0;    ///< metres
-  std::optional<double> t;  ///< Student's t of the two means; none with under 2 on a side
+  std::optional<double> t;  ///< Student's t of the two means; none with under 5 on a side
 };
 
 /// How the channel threshold was set.
@@ -53,6 +53,7 @@ enum class ChannelThreshold {
   constant_drop,  ///< chosen by the drop analysis
   share_of_area,  ///< 1% of the grid's area: no candidate kept a constant drop
 };
+/// The rule's name in the JSON (`channels.threshold_rule`).
 std::string_view threshold_rule_name(ChannelThreshold rule);
 
 struct Geomorphometry {
