@@ -136,6 +136,12 @@ namespace {
 // of it, since their wiggle is the continents' outline.
 constexpr double kBaseShapeOffset = 0.5;
 constexpr double kLandOffset = 0.15;
+// Rivers keep half of eq. 7–9's offset from the base's midpoint (its jitter and the Hermite
+// curve's pull alike): with all of it, the triangles beside a river became slivers whose valley
+// floor, half their height, was narrower than a sample, and tiles read it as pits (0.043 % at
+// zoom 8 on the default planet with all of it, 0.024 % with half; docs/analysis.md,
+// "Generation 15"). Half still meanders at every scale.
+constexpr double kRiverOffset = 0.5;
 // A drain split's vertex keeps at least this share of its edge's drop to each end.
 constexpr double kDrainMargin = 0.2;
 // The slope ends this share of sea_depth down, on the ocean floor of the base mesh's sea.
@@ -309,6 +315,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
         const double xs = dot(sub(vs, t.p), td) / dot(td, td);
         x = std::clamp(xs + (xi - 0.5) * 0.5, 0.25, 0.75);
       }
+      x = 0.5 + kRiverOffset * (x - 0.5);
       m.p = place(normalize(add(scale(t.p, 1.0 - x), scale(d.p, x))));
       m.flags = kLand | kRiver;
       reach_coast(corner_lengths());

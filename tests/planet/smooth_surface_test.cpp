@@ -216,7 +216,7 @@ TEST_F(DryLand, ValleySidesMeetTheDryLandWithoutACrease) {
   // dry ends. The valley side reaches the smooth surface with its slope there (C1), where the
   // floors of generation 12 climbed to it linearly and left a crease.
   std::vector<double> norths;
-  for (int line = 0; line < 16; ++line) norths.push_back(-6000.0 + 800.0 * line);
+  for (int line = 0; line < 24; ++line) norths.push_back(-6000.0 + 500.0 * line);
   const auto beside_water = [](Hierarchy& h, std::int32_t t) {
     return h.tris[static_cast<std::size_t>(t)].face == FaceType::land && !dry(h, t);
   };

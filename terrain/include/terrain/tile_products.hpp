@@ -40,8 +40,9 @@ namespace terrain {
 /// coding alone. 12: planets have lakes, open and closed (lake faces, a `lake` surface type), and
 /// continental shelves and slopes on a deeper ocean floor. 13: planets have plateaus and coastal
 /// plains (land vertices carry their distance to the coast). 14: planets' base rivers have
-/// concave profiles by Flint's law (river_concavity, river_slope_area).
-inline constexpr int kProductGeneration = 14;
+/// concave profiles by Flint's law (river_concavity, river_slope_area). 15: planets' river splits
+/// keep half of their offset from the edge's midpoint (fewer slivers beside rivers).
+inline constexpr int kProductGeneration = 15;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
