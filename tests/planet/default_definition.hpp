@@ -1,6 +1,6 @@
-// The definition of config/planets/default.json, built in code, for tests that need the default
-// planet (or the same definition with another seed or land fraction) without reading the file,
-// and that planet itself, built once per test binary.
+// The definition of config/planets/default.json, for tests that need the default planet (or the
+// same definition with another seed or land fraction), and that planet itself, built once per
+// test binary.
 #pragma once
 
 #include <cstdint>
@@ -14,11 +14,10 @@ namespace planet::test {
 inline constexpr std::uint64_t kDefaultSeed = 20110627;
 
 inline PlanetDefinition default_definition(std::uint64_t seed = kDefaultSeed, double land = 0.35) {
-  PlanetDefinition d;
+  PlanetDefinition d =
+      load_planet_file(TERRAIN_SOURCE_DIR "/config/planets/default.json").value();
   d.seed = seed;
   d.land_fraction = land;
-  d.max_river_altitude = 4500;
-  d.max_mountain_altitude = 8000;
   return d;
 }
 
