@@ -14,8 +14,7 @@ namespace planet::test {
 inline constexpr std::uint64_t kDefaultSeed = 20110627;
 
 inline PlanetDefinition default_definition(std::uint64_t seed = kDefaultSeed, double land = 0.35) {
-  PlanetDefinition d =
-      load_planet_file(TERRAIN_SOURCE_DIR "/config/planets/default.json").value();
+  PlanetDefinition d = load_planet_file(TERRAIN_SOURCE_DIR "/config/planets/default.json").value();
   d.seed = seed;
   d.land_fraction = land;
   return d;
