@@ -14,17 +14,19 @@ namespace {
 
 // Valley floors along rivers and coasts, at every level. In a land triangle with wet corners
 // (river or coast) and dry ones, the ground rises only kFloorRise of the way to the dry
-// corners over the first kFloorWidth of the way (in the dry corners' total barycentric weight
-// D), then blends into the smooth surface with weight smoothstep((D − kFloorWidth) / (1 −
-// kFloorWidth)). A piecewise-linear V whose sides are steeper than the river it holds leaves the
-// samples beside a channel narrower than a sample lower than all eight neighbours (pits at every
-// zoom: docs/analysis.md); a floor about a sample wide drains them into it. The smooth surface
-// here is the Clough–Tocher cubic of the corners with the wet ones level (no slope): along the
-// dry corners' edge it is the cubic and cross-edge slope of those two corners alone, which the
-// all-dry triangle across that edge shares, and the blend's weight arrives there flat, so the
-// valley side meets the dry land with the same height and slope (C1) — until generation 13 it
-// climbed there linearly and left a crease. Along every other edge both triangles see the same
-// two corners with the same weights, so the surface stays continuous.
+// corners over the first kFloorWidth of the way (in the dryness D below, 0 at wet corners and 1
+// at dry ones), then blends into the smooth surface with weight smoothstep((D − kFloorWidth) /
+// (1 − kFloorWidth)). D is a cubic that is C1 across every edge; until generation 15 it was the
+// dry corners' total barycentric weight, whose slope jumps across every spoke from a wet corner,
+// and the blend creased there (issue 20 item 4). A piecewise-linear V whose sides are steeper than
+// the river it holds leaves the samples beside a channel narrower than a sample lower than all
+// eight neighbours (pits at every zoom: docs/analysis.md); a floor about a sample wide drains them
+// into it. The smooth surface here is the Clough–Tocher cubic of the corners with the wet ones
+// level (no slope): along the dry corners' edge it is the cubic and cross-edge slope of those two
+// corners alone, which the all-dry triangle across that edge shares, and the blend's weight arrives
+// there flat, so the valley side meets the dry land with the same height and slope (C1) — until
+// generation 13 it climbed there linearly and left a crease. Along every other edge both triangles
+// see the same two corners with the same weights, so the surface stays continuous.
 constexpr double kFloorWidth = 0.5;
 constexpr double kFloorRise = 0.001;
 
@@ -50,7 +52,18 @@ double floored_ground(const std::array<const Vertex*, 3>& corner, const std::arr
       dry_level = edge_cubic(u, v, along > 0.0 ? w[(k + 2) % 3] / along : 0.5, radius);
     }
   }
-  const double share = std::min(dry_weight, 1.0);
+  // The dryness: the Clough–Tocher cubic of 0 at the wet corners and 1 at the dry ones, level
+  // at every corner. Along an edge it depends on that edge's two ends only, so two triangles
+  // sharing a spoke from a wet corner see the same dryness with the same slope across it.
+  std::array<Vertex, 3> mark{};
+  std::array<const Vertex*, 3> marks{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    mark[k] = *corner[k];
+    mark[k].ground = wet(*corner[k]) ? 0.0 : 1.0;
+    ground_slope(mark[k]) = {0.0f, 0.0f, 0.0f};
+    marks[k] = &mark[k];
+  }
+  const double share = clough_tocher(marks, w, radius);
   const double wet_level = wet_sum / wet_weight;
   const double floor = wet_level + kFloorRise * share * (dry_level - wet_level);
   if (share <= kFloorWidth) return floor;

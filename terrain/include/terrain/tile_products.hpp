@@ -41,7 +41,8 @@ namespace terrain {
 /// continental shelves and slopes on a deeper ocean floor. 13: planets have plateaus and coastal
 /// plains (land vertices carry their distance to the coast). 14: planets' base rivers have
 /// concave profiles by Flint's law (river_concavity, river_slope_area). 15: planets' river splits
-/// keep half of their offset from the edge's midpoint (fewer slivers beside rivers).
+/// keep half of their offset from the edge's midpoint (fewer slivers beside rivers), and valley
+/// sides blend into their floors by a dryness that is C1 across every edge.
 inline constexpr int kProductGeneration = 15;
 
 enum class TileFormat {
