@@ -232,25 +232,39 @@ Result<PlanetDefinition> load_planet_file(const std::string& path) {
   return parse_planet_text(text.str());
 }
 
-nlohmann::json canonical_json(const PlanetDefinition& d) {
+namespace {
+
+// The fields of `d` as JSON: every one when `every_field`, else the canonical form's (those
+// written when set only where they differ from the defaults).
+nlohmann::json fields_json(const PlanetDefinition& d, bool every_field) {
   nlohmann::json out = nlohmann::json::object();
   out["seed"] = d.seed;
   out["continents"] = d.continents;
   out["base_faces"] = d.base_faces;
   static const PlanetDefinition defaults;
-  if (d.lakes != defaults.lakes) out["lakes"] = d.lakes;
+  if (every_field || d.lakes != defaults.lakes) out["lakes"] = d.lakes;
   for (const NumberField& f : number_fields()) {
-    if (f.written_when_set && d.*(f.member) == defaults.*(f.member)) continue;
+    if (!every_field && f.written_when_set && d.*(f.member) == defaults.*(f.member)) continue;
     out[f.name] = d.*(f.member);
   }
   nlohmann::json detail = nlohmann::json::object();
   for (const DetailField& f : detail_fields()) detail[f.name] = d.detail.*(f.member);
   out["detail"] = std::move(detail);
-  if (!d.continent_map.empty()) out["continent_map"] = d.continent_map;
-  if (!terrain::same_material(d.material, terrain::Material{})) {
+  if (every_field || !d.continent_map.empty()) out["continent_map"] = d.continent_map;
+  if (every_field || !terrain::same_material(d.material, terrain::Material{})) {
     out["material"] = terrain::material_json(d.material);
   }
   return out;
+}
+
+}  // namespace
+
+nlohmann::json canonical_json(const PlanetDefinition& d) {
+  return fields_json(d, false);
+}
+
+nlohmann::json definition_defaults() {
+  return fields_json(PlanetDefinition{}, true);
 }
 
 std::string canonical_text(const PlanetDefinition& d) {

@@ -2,6 +2,10 @@
 // the offending field's JSON pointer.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -200,6 +204,86 @@ TEST(PlanetDefinition, ContinentMapMustBeAnImageHashNeverAPathOrUrl) {
     Result<PlanetDefinition> d = parse_planet_text(R"({"continent_map": )" + value + "}");
     ASSERT_FALSE(d.ok()) << value;
     EXPECT_EQ(d.error().pointer, "/continent_map") << value;
+  }
+}
+
+// docs/planet.md's table of fields ("| `name` | default | …"), read as name → default cell.
+std::map<std::string, std::string> documented_fields() {
+  std::ifstream in(TERRAIN_SOURCE_DIR "/docs/planet.md");
+  std::map<std::string, std::string> rows;
+  std::string line;
+  bool inside = false;
+  while (std::getline(in, line)) {
+    if (line.starts_with("| Field | Default |")) {
+      inside = true;
+      continue;
+    }
+    if (!inside || line.starts_with("|---")) continue;
+    if (!line.starts_with("| `")) break;
+    const std::size_t name_end = line.find('`', 3);
+    const std::size_t cell = line.find('|', name_end) + 1;
+    rows[line.substr(3, name_end - 3)] = line.substr(cell, line.find('|', cell) - cell);
+  }
+  return rows;
+}
+
+// A documented number: digits with spaces between thousands, a decimal point, or 10 with a
+// superscript exponent ("10⁹"); whatever follows in parentheses is a gloss.
+double documented_number(std::string text) {
+  text = text.substr(0, text.find('('));
+  std::string digits;
+  int exponent = 0, sign = 1;
+  bool superscript = false;
+  static const std::vector<std::string> powers = {"⁰", "¹", "²", "³", "⁴", "⁵", "⁶", "⁷", "⁸", "⁹"};
+  for (std::size_t i = 0; i < text.size();) {
+    bool matched = false;
+    for (int d = 0; d < 10; ++d) {
+      if (text.compare(i, powers[static_cast<std::size_t>(d)].size(),
+                       powers[static_cast<std::size_t>(d)]) == 0) {
+        exponent = exponent * 10 + d;
+        superscript = matched = true;
+        i += powers[static_cast<std::size_t>(d)].size();
+      }
+    }
+    if (matched) continue;
+    if (text.compare(i, 3, "⁻") == 0) {
+      sign = -1;
+      i += 3;
+      continue;
+    }
+    const char c = text[i++];
+    if ((c >= '0' && c <= '9') || c == '.') digits += c;
+  }
+  const double mantissa = std::stod(digits);
+  return superscript ? std::pow(mantissa, sign * exponent) : mantissa;
+}
+
+TEST(PlanetDocs, DescribeEveryFieldWithItsDefault) {
+  const std::map<std::string, std::string> documented = documented_fields();
+  ASSERT_GT(documented.size(), 20u) << "docs/planet.md's table of fields was not found";
+  const nlohmann::json every_field = definition_defaults();
+  std::map<std::string, nlohmann::json> defaults;
+  for (const auto& [name, value] : every_field.items()) {
+    if (name == "detail") {
+      for (const auto& [inner, v] : value.items()) defaults["detail." + inner] = v;
+    } else {
+      defaults[name] = value;
+    }
+  }
+  for (const auto& [name, value] : defaults) {
+    const auto row = documented.find(name);
+    if (row == documented.end()) {
+      ADD_FAILURE() << "docs/planet.md has no row for " << name;
+      continue;
+    }
+    if (!value.is_number()) continue;  // continent_map ("none"), material ("defaults")
+    EXPECT_NEAR(documented_number(row->second), value.get<double>(),
+                1e-9 * std::abs(value.get<double>()))
+        << name << " is documented with the default" << row->second;
+  }
+  for (const auto& [name, cell] : documented) {
+    EXPECT_TRUE(defaults.contains(name))
+        << "docs/planet.md documents " << name << ", which is no field of a definition";
   }
 }
 

@@ -113,6 +113,10 @@ Result<PlanetDefinition> load_planet_file(const std::string& path);
 /// defaults (so planets defined before
 /// those fields existed keep their ids): parse_planet(canonical_json(d)) gives d back.
 nlohmann::json canonical_json(const PlanetDefinition& definition);
+/// Every field at its default, those canonical_json leaves out included (continent_map as "",
+/// material as its JSON): what docs/planet.md's table of fields must list
+/// (PlanetDocs.DescribeEveryFieldWithItsDefault).
+nlohmann::json definition_defaults();
 /// The canonical text: keys sorted, no whitespace, shortest round-trip numbers.
 std::string canonical_text(const PlanetDefinition& definition);
 /// The planet's id: lowercase hex SHA-256 of canonical_text (64 characters, URL-safe).
