@@ -13,20 +13,21 @@ namespace planet {
 namespace {
 
 // Valley floors along rivers and coasts, at every level. In a land triangle with wet corners
-// (river or coast) and dry ones, the ground rises only kFloorRise of the way to the dry
-// corners over the first kFloorWidth of the way (in the dryness D below, 0 at wet corners and 1
-// at dry ones), then blends into the smooth surface with weight smoothstep((D − kFloorWidth) /
-// (1 − kFloorWidth)). D is a cubic that is C1 across every edge; until generation 15 it was the
-// dry corners' total barycentric weight, whose slope jumps across every spoke from a wet corner,
-// and the blend creased there (issue 20 item 4). A piecewise-linear V whose sides are steeper than
-// the river it holds leaves the samples beside a channel narrower than a sample lower than all
-// eight neighbours (pits at every zoom: docs/analysis.md); a floor about a sample wide drains them
-// into it. The smooth surface here is the Clough–Tocher cubic of the corners with the wet ones
-// level (no slope): along the dry corners' edge it is the cubic and cross-edge slope of those two
-// corners alone, which the all-dry triangle across that edge shares, and the blend's weight arrives
-// there flat, so the valley side meets the dry land with the same height and slope (C1) — until
-// generation 13 it climbed there linearly and left a crease. Along every other edge both triangles
-// see the same two corners with the same weights, so the surface stays continuous.
+// (river or coast) and dry ones, the ground rises only kFloorRise of the way from the wet
+// corners' level to the smooth surface over the first kFloorWidth of the way (in the dryness D
+// below, 0 at wet corners and 1 at dry ones), then blends into the smooth surface with weight
+// smoothstep((D − kFloorWidth) / (1 − kFloorWidth)). D is a cubic that is C1 across every edge;
+// until generation 15 it was the dry corners' total barycentric weight, whose slope jumps across
+// every spoke from a wet corner, and the blend creased there (issue 20 item 4). A piecewise-linear
+// V whose sides are steeper than the river it holds leaves the samples beside a channel narrower
+// than a sample lower than all eight neighbours (pits at every zoom: docs/analysis.md); a floor
+// about a sample wide drains them into it. The smooth surface here is the Clough–Tocher cubic of
+// the corners with the wet ones level (no slope): along the dry corners' edge it is the cubic and
+// cross-edge slope of those two corners alone, which the all-dry triangle across that edge shares,
+// and the blend's weight arrives there flat, so the valley side meets the dry land with the same
+// height and slope (C1) — until generation 13 it climbed there linearly and left a crease. Along
+// every other edge both triangles see the same two corners with the same weights, so the surface
+// stays continuous.
 constexpr double kFloorWidth = 0.5;
 constexpr double kFloorRise = 0.001;
 
@@ -43,15 +44,7 @@ double floored_ground(const std::array<const Vertex*, 3>& corner, const std::arr
     }
   }
   if (!(wet_weight > 0.0) || !(dry_weight > 0.0)) return wet_sum + dry_sum;
-  double dry_level = dry_sum / dry_weight;
-  for (std::size_t k = 0; k < 3; ++k) {
-    const Vertex& u = *corner[(k + 1) % 3];
-    const Vertex& v = *corner[(k + 2) % 3];
-    if (wet(*corner[k]) && !wet(u) && !wet(v)) {
-      const double along = w[(k + 2) % 3] + w[(k + 1) % 3];
-      dry_level = edge_cubic(u, v, along > 0.0 ? w[(k + 2) % 3] / along : 0.5, radius);
-    }
-  }
+  const double wet_level = wet_sum / wet_weight;
   // The dryness: the Clough–Tocher cubic of 0 at the wet corners and 1 at the dry ones, level
   // at every corner. Along an edge it depends on that edge's two ends only, so two triangles
   // sharing a spoke from a wet corner see the same dryness with the same slope across it.
@@ -64,11 +57,7 @@ double floored_ground(const std::array<const Vertex*, 3>& corner, const std::arr
     marks[k] = &mark[k];
   }
   const double share = clough_tocher(marks, w, radius);
-  const double wet_level = wet_sum / wet_weight;
-  const double floor = wet_level + kFloorRise * share * (dry_level - wet_level);
-  if (share <= kFloorWidth) return floor;
-  // The valley side: from the floor to the smooth surface, which it reaches with the surface's
-  // slope at the dry corners (C1 with the all-dry triangle across their edge).
+  // The smooth surface with the wet corners level: what the valley side climbs to.
   std::array<Vertex, 3> level{};
   std::array<const Vertex*, 3> side = corner;
   for (std::size_t k = 0; k < 3; ++k) {
@@ -77,8 +66,12 @@ double floored_ground(const std::array<const Vertex*, 3>& corner, const std::arr
     ground_slope(level[k]) = {0.0f, 0.0f, 0.0f};
     side[k] = &level[k];
   }
-  return floor + smoothstep((share - kFloorWidth) / (1.0 - kFloorWidth)) *
-                     (clough_tocher(side, w, radius) - floor);
+  const double smooth = clough_tocher(side, w, radius);
+  const double floor = wet_level + kFloorRise * share * (smooth - wet_level);
+  if (share <= kFloorWidth) return floor;
+  // The valley side: from the floor to the smooth surface, which it reaches with the surface's
+  // slope at the dry corners (C1 with the all-dry triangle across their edge).
+  return floor + smoothstep((share - kFloorWidth) / (1.0 - kFloorWidth)) * (smooth - floor);
 }
 
 }  // namespace

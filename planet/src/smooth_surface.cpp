@@ -12,15 +12,6 @@ Vec3d scaled_slope(const Vertex& v, double scale) {
 
 }  // namespace
 
-double edge_cubic(const Vertex& u, const Vertex& v, double s, double radius) {
-  // The same arithmetic as clough_tocher's edge ordinates, so the same bits.
-  const double e_uv = u.ground + dot(scaled_slope(u, radius / 3.0), sub(v.p, u.p));
-  const double e_vu = v.ground + dot(scaled_slope(v, radius / 3.0), sub(u.p, v.p));
-  const double r = 1.0 - s;
-  return r * r * r * u.ground + 3.0 * r * r * s * e_uv + 3.0 * r * s * s * e_vu +
-         s * s * s * v.ground;
-}
-
 double clough_tocher(const std::array<const Vertex*, 3>& corner, const std::array<double, 3>& w,
                      double radius) {
   // Per corner i, with j = i + 1 and k = i + 2 (mod 3): the edge to the next corner, x_j − x_i,

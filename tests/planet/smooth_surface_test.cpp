@@ -244,9 +244,10 @@ TEST_F(DryLand, SpokesFromWetCornersHaveNoCrease) {
   // wet end and one dry end (a spoke from a river vertex). The valley side blends into its floor
   // by a dryness that is C1 across every edge; until generation 15 the blend's weight was the
   // dry corners' barycentric weight, and the slope changed by up to 0.32 across these spokes.
-  // What remains is the floor's own level: level in a triangle with one river corner, following
-  // the river in one with two, it bends where they meet by a few times the river's slope (up to
-  // 0.036 on these lines), hence the allowance.
+  // Between two triangles with one river corner each nothing remains. The floor's own level does
+  // remain where a triangle with two river corners meets one with one: level in the one, following
+  // the river in the other, it bends there by a few times the river's slope (up to 0.036 on these
+  // lines), hence the allowance.
   std::vector<double> norths;
   for (int line = 0; line < 24; ++line) norths.push_back(-6000.0 + 500.0 * line);
   const auto beside_water = [](Hierarchy& h, std::int32_t t) {

@@ -36,11 +36,6 @@ inline bool all_dry(const std::array<const Vertex*, 3>& corner) {
 double clough_tocher(const std::array<const Vertex*, 3>& corner, const std::array<double, 3>& w,
                      double radius);
 
-/// The cubic along the edge from u to v at parameter s (0 at u, 1 at v): the surface's value on
-/// that edge in every triangle the cubic fills, and what the valley floors (planet.cpp) use for
-/// their dry edge so that they meet those triangles without a step.
-double edge_cubic(const Vertex& u, const Vertex& v, double s, double radius);
-
 /// The slope (metres per metre, tangent at m) of a new vertex from its four neighbours `ring`,
 /// counter-clockwise around it: the area-weighted mean of the gradients of the four triangles
 /// (m, ring[k], ring[k + 1]).
