@@ -45,27 +45,25 @@ double floored_ground(const std::array<const Vertex*, 3>& corner, const std::arr
   }
   if (!(wet_weight > 0.0) || !(dry_weight > 0.0)) return wet_sum + dry_sum;
   const double wet_level = wet_sum / wet_weight;
-  // The dryness: the Clough–Tocher cubic of 0 at the wet corners and 1 at the dry ones, level
-  // at every corner. Along an edge it depends on that edge's two ends only, so two triangles
-  // sharing a spoke from a wet corner see the same dryness with the same slope across it.
-  std::array<Vertex, 3> mark{};
-  std::array<const Vertex*, 3> marks{};
+  // Two copies of the corners, level (no slope) where it matters. `marks` carry the dryness: the
+  // Clough–Tocher cubic of 0 at the wet corners and 1 at the dry ones, level at every corner.
+  // Along an edge it depends on that edge's two ends only, so two triangles sharing a spoke from
+  // a wet corner see the same dryness with the same slope across it. `side` carries the smooth
+  // surface with the wet corners level: what the valley side climbs to.
+  std::array<Vertex, 3> mark{}, level{};
+  std::array<const Vertex*, 3> marks{}, side = corner;
   for (std::size_t k = 0; k < 3; ++k) {
+    const bool is_wet = wet(*corner[k]);
     mark[k] = *corner[k];
-    mark[k].ground = wet(*corner[k]) ? 0.0 : 1.0;
+    mark[k].ground = is_wet ? 0.0 : 1.0;
     ground_slope(mark[k]) = {0.0f, 0.0f, 0.0f};
     marks[k] = &mark[k];
-  }
-  const double share = clough_tocher(marks, w, radius);
-  // The smooth surface with the wet corners level: what the valley side climbs to.
-  std::array<Vertex, 3> level{};
-  std::array<const Vertex*, 3> side = corner;
-  for (std::size_t k = 0; k < 3; ++k) {
-    if (!wet(*corner[k])) continue;
+    if (!is_wet) continue;
     level[k] = *corner[k];
     ground_slope(level[k]) = {0.0f, 0.0f, 0.0f};
     side[k] = &level[k];
   }
+  const double share = clough_tocher(marks, w, radius);
   const double smooth = clough_tocher(side, w, radius);
   const double floor = wet_level + kFloorRise * share * (smooth - wet_level);
   if (share <= kFloorWidth) return floor;

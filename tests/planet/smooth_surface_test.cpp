@@ -134,6 +134,32 @@ class DryLand : public ::testing::Test {
     return tri.face == FaceType::land &&
            all_dry({&h.vertices[tri.v[0]], &h.vertices[tri.v[1]], &h.vertices[tri.v[2]]});
   }
+  // A land triangle with a wet corner: a valley's floor and side.
+  static bool beside_water(const Hierarchy& h, std::int32_t t) {
+    return h.tris[static_cast<std::size_t>(t)].face == FaceType::land && !dry(h, t);
+  }
+  // The corners two triangles share, and how many of those are wet.
+  struct Shared {
+    int corners = 0;
+    int wet = 0;
+  };
+  static Shared shared_corners(const Hierarchy& h, std::int32_t a, std::int32_t b) {
+    Shared shared;
+    for (std::uint32_t u : h.tris[static_cast<std::size_t>(a)].v) {
+      for (std::uint32_t v : h.tris[static_cast<std::size_t>(b)].v) {
+        if (u != v) continue;
+        ++shared.corners;
+        if (wet(h.vertices[u])) ++shared.wet;
+      }
+    }
+    return shared;
+  }
+  // Lines across a river valley 15–35 km east of the square's centre, 500 m apart.
+  static std::vector<double> valley_lines() {
+    std::vector<double> norths;
+    for (int line = 0; line < 24; ++line) norths.push_back(-6000.0 + 500.0 * line);
+    return norths;
+  }
   // Along eastward lines (`north` metres from the centre, east from `from` to `to`), every
   // crossing from one triangle into another that `selected(h, before, after)` picks: the slope's
   // change across it must shrink with the step (C1), where a crease would keep it. Returns how
@@ -216,26 +242,17 @@ TEST_F(DryLand, ValleySidesMeetTheDryLandWithoutACrease) {
   // triangle beside the water (a valley's floor and side) into a dry one over an edge with two
   // dry ends. The valley side reaches the smooth surface with its slope there (C1), where the
   // floors of generation 12 climbed to it linearly and left a crease.
-  std::vector<double> norths;
-  for (int line = 0; line < 24; ++line) norths.push_back(-6000.0 + 500.0 * line);
-  const auto beside_water = [](Hierarchy& h, std::int32_t t) {
-    return h.tris[static_cast<std::size_t>(t)].face == FaceType::land && !dry(h, t);
-  };
-  const int crossings = check_crossings(
-      norths, 15000.0, 35000.0, [&](Hierarchy& h, std::int32_t before, std::int32_t after) {
-        if (!(beside_water(h, before) && dry(h, after)) &&
-            !(dry(h, before) && beside_water(h, after))) {
-          return false;
-        }
-        // The edge between them: their two shared corners, both dry.
-        int shared_dry = 0;
-        for (std::uint32_t u : h.tris[static_cast<std::size_t>(before)].v) {
-          for (std::uint32_t v : h.tris[static_cast<std::size_t>(after)].v) {
-            if (u == v && !wet(h.vertices[u])) ++shared_dry;
-          }
-        }
-        return shared_dry == 2;
-      });
+  const int crossings = check_crossings(valley_lines(), 15000.0, 35000.0,
+                                        [](Hierarchy& h, std::int32_t before, std::int32_t after) {
+                                          if (!(beside_water(h, before) && dry(h, after)) &&
+                                              !(dry(h, before) && beside_water(h, after))) {
+                                            return false;
+                                          }
+                                          // The edge between them: their two shared corners, both
+                                          // dry.
+                                          const Shared shared = shared_corners(h, before, after);
+                                          return shared.corners == 2 && shared.wet == 0;
+                                        });
   EXPECT_GT(crossings, 20);
 }
 
@@ -248,24 +265,12 @@ TEST_F(DryLand, SpokesFromWetCornersHaveNoCrease) {
   // remain where a triangle with two river corners meets one with one: level in the one, following
   // the river in the other, it bends there by a few times the river's slope (up to 0.036 on these
   // lines), hence the allowance.
-  std::vector<double> norths;
-  for (int line = 0; line < 24; ++line) norths.push_back(-6000.0 + 500.0 * line);
-  const auto beside_water = [](Hierarchy& h, std::int32_t t) {
-    return h.tris[static_cast<std::size_t>(t)].face == FaceType::land && !dry(h, t);
-  };
   const int crossings = check_crossings(
-      norths, 15000.0, 35000.0,
-      [&](Hierarchy& h, std::int32_t before, std::int32_t after) {
+      valley_lines(), 15000.0, 35000.0,
+      [](Hierarchy& h, std::int32_t before, std::int32_t after) {
         if (!beside_water(h, before) || !beside_water(h, after)) return false;
-        int shared = 0, shared_wet = 0;
-        for (std::uint32_t u : h.tris[static_cast<std::size_t>(before)].v) {
-          for (std::uint32_t v : h.tris[static_cast<std::size_t>(after)].v) {
-            if (u != v) continue;
-            ++shared;
-            if (wet(h.vertices[u])) ++shared_wet;
-          }
-        }
-        return shared == 2 && shared_wet == 1;
+        const Shared shared = shared_corners(h, before, after);
+        return shared.corners == 2 && shared.wet == 1;
       },
       0.05);
   EXPECT_GT(crossings, 20);
