@@ -316,29 +316,37 @@ def drainage(child, size, **params):
 
 
 def river_lake():
-    """A valley drained by a trunk river and its tributaries, carved as wide and deep as their
-    flow, through a lake held behind a rock sill."""
+    """A river basin: hills ring it but for a gorge in the south, so one trunk river gathers
+    every tributary and leaves through the gorge, and the main branches meet in a lake held
+    behind a rock sill above it. (With the ring open along the whole south side, three parallel
+    rivers drained it, the largest a third of the square, and the short streams of the slopes
+    outside the ring joined nothing: R_b 5.35, N2/N3 6.5.)"""
     rng = random.Random(48)
     rim = []
-    for i in range(12):
-        a = math.pi * (-0.1 + 1.2 * i / 11)  # round the north, open to the south
-        x, y = 3200 * math.cos(a), 3000 * math.sin(a) + 400
+    for i in range(14):
+        a = math.pi * (-0.38 + 1.76 * i / 13)  # from south-east round the north to south-west
+        x, y = 3600 * math.cos(a) - 300, 3600 * math.sin(a) + 300
         rim.append({"type": "disc", "center": [r1(x), r1(y)], "radius": r1(rng.uniform(1300, 1800)),
                     "elevation": r1(rng.uniform(800, 1150)),
                     "noise": {"kind": "fbm", "amplitude": 250, "wavelength": 1300, "octaves": 6,
                               "seed": 90 + i}})
     floor = {"type": "disc", "center": [0, 0], "radius": 7000, "elevation": 200,
              "noise": {"kind": "fbm", "amplitude": 80, "wavelength": 1700, "octaves": 6, "seed": 9}}
+    # Blended with the floor, a wide disc centred north-west of the square tilts it towards the
+    # gorge and off the ring's axis, so that the trunk does not run straight down the middle.
+    tilt = {"type": "disc", "center": [-5000, 8000], "radius": 14000, "elevation": 300}
     # Less hillslope diffusion than the other valleys: it would round the heads of the channels
     # that the drainage then carves, and their slopes would follow drainage area less.
-    valley = erosion([floor] + rim, 8000, uplift=0.6, strength=0.3, concavity=0.5, diffusion=1)
-    # A glacial basin dug into the trunk's valley behind a rock sill: the drainage keeps it as a
-    # lake, and the trunk leaves it over the sill.
+    valley = erosion([floor] + rim + [tilt], 8000, uplift=0.6, strength=0.3, concavity=0.5,
+                     diffusion=1)
+    # A glacial basin dug where the branches meet, behind a rock sill at the gorge's head: the
+    # drainage keeps it as a lake, and the trunk leaves it over the sill.
     basin = {"type": "add", "children": [
-        {"type": "disc", "center": [1500, 100], "radius": 700, "elevation": -80},
-        {"type": "disc", "center": [1500, -650], "radius": 450, "elevation": 35}]}
+        {"type": "disc", "center": [-300, -1800], "radius": 900, "elevation": -100},
+        {"type": "disc", "center": [-300, -2750], "radius": 450, "elevation": 35}]}
     write("river-lake", {
-        "name": "A valley with a trunk river, its tributaries and a lake (erosion, drainage)",
+        "name": "A river basin drained through a gorge, its branches meeting in a lake (erosion, "
+                "drainage)",
         "seed": 44, "extent": {"min": [-4000, -4000], "max": [4000, 4000]},
         "georeference": {"latitude": 45.9, "longitude": 6.9, "heading": 0},
         "root": drainage({"type": "add", "children": [valley, basin]}, 8000,

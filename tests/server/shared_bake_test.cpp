@@ -40,7 +40,7 @@ void post_drained_dome(int port) {
 TEST(SharedBakes, AReplicaFindsTheGridsAnotherComputedInTheDiskCache) {
   TempDir dir("shared-bakes");
   const std::string disk = (dir.path() / "disk").string();
-  const std::string target = "/api/v1/scenes/river-lake/sample?x=1500&y=100";
+  const std::string target = "/api/v1/scenes/river-lake/sample?x=-300&y=-1800";
   json first_sample;
   {
     ServerProcess first(dir.path() / "data-a", {"--disk-cache-dir", disk});
