@@ -226,16 +226,78 @@ PointSample Sampler::sample(double latitude, double longitude, double spacing) {
 }
 
 PointSample Sampler::at(const Vec3d& p, int level, double octaves) {
-  trim_when_large();
-  return evaluate(hierarchy_.locate(p, level), p, level, octaves);
+  return at(p, level, octaves, DescentStart{});
 }
 
 PointSample Sampler::at(const Vec3d& p, int level, double octaves, const DescentStart& start) {
   trim_when_large();  // before the start is checked: a trim makes it stale
-  const bool usable = start.generation == generation_ && start.level <= level && start.holds(p);
-  return evaluate(
-      usable ? hierarchy_.locate_from(start.tri, p, level) : hierarchy_.locate(p, level), p, level,
-      octaves);
+  return evaluate(descend(p, level, start), p, level, octaves);
+}
+
+PointSample Sampler::at_from_root(const Vec3d& p, int level, double octaves) {
+  trim_when_large();
+  return evaluate(hierarchy_.locate(p, level), p, level, octaves);
+}
+
+DescentStart Sampler::start_at(std::int32_t t) const {
+  const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(t)];
+  DescentStart start;
+  start.tri = t;
+  start.generation = generation_;
+  start.level = tri.level;
+  for (std::size_t k = 0; k < 3; ++k) {
+    start.normal[k] =
+        cross(hierarchy_.vertices[tri.v[k]].p, hierarchy_.vertices[tri.v[(k + 1) % 3]].p);
+  }
+  return start;
+}
+
+std::int32_t Sampler::descend(const Vec3d& p, int level, const DescentStart& start) {
+  const bool current = path_level_ == level && !path_.empty() && leaf_.generation == generation_;
+  if (current) {
+    // Walk from the last leaf across the edges p lies beyond: a level is a triangulation, so a
+    // triangle of it that holds p by the margin is the leaf p's descent ends in.
+    DescentStart at = leaf_;
+    for (int step = 0; step <= kWalkSteps; ++step) {
+      if (at.holds(p)) {
+        leaf_ = at;
+        return at.tri;
+      }
+      if (step == kWalkSteps) break;
+      std::size_t beyond = 0;
+      for (std::size_t k = 1; k < 3; ++k) {
+        if (dot(at.normal[k], p) < dot(at.normal[beyond], p)) beyond = k;
+      }
+      if (beyond == 0) hierarchy_.ensure_partner(at.tri);
+      at = start_at(hierarchy_.tris[static_cast<std::size_t>(at.tri)].nb[beyond]);
+    }
+  }
+  // Else descend from the deepest triangle of the last descent that holds p.
+  std::size_t keep = 0;
+  if (current) {
+    for (std::size_t k = path_.size(); k-- > 0;) {
+      if (path_[k].holds(p)) {
+        keep = k + 1;
+        break;
+      }
+    }
+  }
+  if (keep > 0) {
+    path_.resize(keep);
+  } else {
+    path_.clear();
+    path_level_ = level;
+    const bool usable = start.generation == generation_ && start.level <= level && start.holds(p);
+    path_.push_back(usable ? start : start_at(hierarchy_.root_face(p)));
+  }
+  std::int32_t t = path_.back().tri;
+  while (hierarchy_.tris[static_cast<std::size_t>(t)].level < level) {
+    hierarchy_.ensure_split(t);
+    t = hierarchy_.locate_child(t, p);
+    path_.push_back(start_at(t));
+  }
+  leaf_ = path_.back();
+  return t;
 }
 
 DescentStart Sampler::descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level) {
@@ -246,15 +308,7 @@ DescentStart Sampler::descent_start(const Vec3d& centre, std::span<const Vec3d> 
     path.push_back(hierarchy_.locate_child(path.back(), centre));
   }
   for (auto it = path.rbegin(); it != path.rend(); ++it) {
-    const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(*it)];
-    DescentStart start;
-    start.tri = *it;
-    start.generation = generation_;
-    start.level = tri.level;
-    for (std::size_t k = 0; k < 3; ++k) {
-      start.normal[k] =
-          cross(hierarchy_.vertices[tri.v[k]].p, hierarchy_.vertices[tri.v[(k + 1) % 3]].p);
-    }
+    const DescentStart start = start_at(*it);
     if (start.holds(centre) &&
         std::all_of(points.begin(), points.end(), [&](const Vec3d& p) { return start.holds(p); })) {
       return start;

@@ -245,10 +245,11 @@ TEST(PlanetRefinement, HeightsDoNotDependOnWhatWasEvaluatedBefore) {
   }
 }
 
-// Tiles start each sample's descent at a triangle shared by a block of samples (DescentStart).
-// Whatever the block — tiny or wide, deep or shallow, astride the octahedron's edges and the
-// antimeridian — every sample must land where a lone descent from the root lands: same ground,
-// water, type and river distance, bit for bit.
+// Tiles start each sample's descent at a triangle shared by a block of samples (DescentStart),
+// or walk to it from the last sample's leaf, or start from the last descent's path. Whatever the
+// block — tiny or wide, deep or shallow, astride the octahedron's edges and the antimeridian —
+// every sample must land where a lone descent from the root lands: same ground, water, type
+// and river distance, bit for bit.
 TEST(PlanetRefinement, DescentStartsGiveTheSamplesOfADescentFromTheRoot) {
   const auto& world = shared_planet();
   std::mt19937_64 random(11);
@@ -285,7 +286,7 @@ TEST(PlanetRefinement, DescentStartsGiveTheSamplesOfADescentFromTheRoot) {
         started += start.holds(p) ? 1 : 0;
         ++total;
         const PointSample a = blocked.at(p, level, octaves, start);
-        const PointSample b = lone.at(p, level, octaves);
+        const PointSample b = lone.at_from_root(p, level, octaves);
         ASSERT_EQ(a.ground, b.ground) << lat << ", " << lon << " extent " << extent;
         ASSERT_EQ(a.water, b.water);
         ASSERT_EQ(a.type, b.type);
@@ -295,6 +296,41 @@ TEST(PlanetRefinement, DescentStartsGiveTheSamplesOfADescentFromTheRoot) {
   }
   // Most samples did use a start (else this would test nothing).
   EXPECT_GT(started, total / 2);
+}
+
+// Samples a tile's row apart walk from leaf to leaf, or start from the last descent's path.
+// At the finest level (10 m edges) and at levels whose edges are a few samples long, in rows as
+// tiles take them, every sample lands where a lone descent from the root lands, bit for bit.
+TEST(PlanetRefinement, SamplesWalkingFromTheLastLeafGiveTheSamplesOfADescentFromTheRoot) {
+  const auto& world = shared_planet();
+  std::mt19937_64 random(12);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int trial = 0; trial < 24; ++trial) {
+    double lat = -89.0 + 178.0 * unit(random), lon = -180.0 + 360.0 * unit(random);
+    if (trial % 6 == 1) lat = 0.0;  // astride an octahedron edge
+    const int level = trial % 2 == 0
+                          ? world->rules().max_level
+                          : world->rules().mesh_level + static_cast<int>(unit(random) * 20.0);
+    // Samples from a fifth to twice an edge apart.
+    const double spacing = world->rules().edge_length(level) * (0.2 + 1.8 * unit(random));
+    const double step = spacing / world->definition().radius * 180.0 / std::numbers::pi;
+    Sampler walking(world), lone(world);
+    constexpr int kSide = 24;
+    for (int i = 0; i < kSide; ++i) {
+      for (int j = 0; j < kSide; ++j) {
+        double lo = lon + step * (j - kSide / 2);
+        if (lo >= 180.0) lo -= 360.0;
+        const Vec3d p =
+            world->geodesy().direction(std::clamp(lat - step * (i - kSide / 2), -90.0, 90.0), lo);
+        const PointSample a = walking.at(p, level, 1.0);
+        const PointSample b = lone.at_from_root(p, level, 1.0);
+        ASSERT_EQ(a.ground, b.ground) << lat << ", " << lon << " level " << level;
+        ASSERT_EQ(a.water, b.water);
+        ASSERT_EQ(a.type, b.type);
+        ASSERT_EQ(a.river_distance, b.river_distance);
+      }
+    }
+  }
 }
 
 TEST(PlanetRefinement, TrianglesStayPositivelyOrientedSoRiversCannotCross) {

@@ -11,6 +11,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -99,15 +100,22 @@ class Planet {
 /// Where a group of nearby samples may start their descent instead of the octahedron: a
 /// triangle of the sampler's hierarchy and its edges' planes. Levels are triangulations whose
 /// children are the sectors of their diamond, so the descent of a point at level k ends in the
-/// level-k triangle that holds it; a point inside this triangle by a margin far above the
-/// rounding of the descent's determinants (1e-12 against ~1e-15) therefore descends through it,
-/// and starting there gives the same leaf, bit for bit. Points nearer an edge start at the root.
+/// level-k triangle that holds it; a point inside this triangle by a margin therefore descends
+/// through it, and starting there gives the same leaf, bit for bit. The edges' planes are the
+/// descent's own determinants: every edge of a triangle was a ray m→X of the split that made it,
+/// which the descent tested as det(m, X, p) = dot(cross(m, X), p), and cross(X, m) is its exact
+/// negation (no FMA contraction), so any positive margin agrees with the descent's signs; the
+/// margin only leaves out points on an edge, where the descent's half-open tests decide.
+/// (It was 1e-12 until 2026-12-05: a determinant shrinks with the edge's length, e·d/R², so
+/// that margin left out a band 0.3 m wide along 150 m edges and 4 m along the finest, 10 m
+/// edges, which no point then cleared.)
 struct DescentStart {
   std::int32_t tri = -1;         ///< −1: none (every point starts at the root)
   std::uint64_t generation = 0;  ///< the sampler's trim count when it was found
   int level = 0;
   std::array<Vec3d, 3> normal{};  ///< cross(v_k, v_k+1): p is inside when every dot is > margin
-  static constexpr double kMargin = 1e-12;
+  /// A few roundings of a determinant of unit vectors: 4 mm along the finest, 10 m edges.
+  static constexpr double kMargin = 1e-15;
   bool holds(const Vec3d& p) const {
     return tri >= 0 && dot(normal[0], p) > kMargin && dot(normal[1], p) > kMargin &&
            dot(normal[2], p) > kMargin;
@@ -126,10 +134,14 @@ class Sampler {
   PointSample sample(double latitude, double longitude);
   /// At the level of detail of samples `spacing` metres apart.
   PointSample sample(double latitude, double longitude, double spacing);
-  /// At a direction, mesh level and octave count.
+  /// At a direction, mesh level and octave count. The descent starts from the last one's leaf
+  /// or path where they hold the direction (identical results: see DescentStart).
   PointSample at(const Vec3d& direction, int level, double octaves);
-  /// The same, descending from `start` when it holds the direction (identical results).
+  /// The same, descending from `start` when neither does and it holds the direction.
   PointSample at(const Vec3d& direction, int level, double octaves, const DescentStart& start);
+  /// The same, descending from the octahedron as a lone sample does: what every start, path and
+  /// walk must agree with, bit for bit (the tests' reference).
+  PointSample at_from_root(const Vec3d& direction, int level, double octaves);
   /// The deepest triangle, at most `level`, on the way down to `centre` that holds every one
   /// of `points` by the margin: a start for the samples in and around them.
   DescentStart descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level);
@@ -141,10 +153,23 @@ class Sampler {
  private:
   PointSample evaluate(std::int32_t leaf, const Vec3d& direction, int level, double octaves);
   void trim_when_large();
+  /// Triangle t with its edges' planes.
+  DescentStart start_at(std::int32_t t) const;
+  /// The triangle at `level` holding p: the leaf locate(p, level) finds, bit for bit, descending
+  /// from the deepest triangle of the last descent that holds p, else from `start` when usable,
+  /// else from the octahedron.
+  std::int32_t descend(const Vec3d& p, int level, const DescentStart& start);
 
   std::shared_ptr<const Planet> planet_;
   Hierarchy hierarchy_;
   std::uint64_t generation_ = 0;  ///< trims so far: a DescentStart of another is stale
+  /// The last descent's triangles, its start first, each holding the last point (see
+  /// DescentStart: any of them that holds the next point by the margin lies on its way down).
+  std::vector<DescentStart> path_;
+  int path_level_ = -1;  ///< the level that descent went to
+  DescentStart leaf_;    ///< the last point's leaf, at path_level_
+  /// Steps across leaf edges before a point is looked for down the path instead.
+  static constexpr int kWalkSteps = 2;
 };
 
 /// {"latitude", "longitude", "ground", "water", "type", "level"}: the sample route's body.
