@@ -202,11 +202,20 @@ double Planet::detail(const Vec3d& p, double octaves) const {
   return sum;
 }
 
-Sampler::Sampler(std::shared_ptr<const Planet> planet)
-    : planet_(std::move(planet)), hierarchy_(planet_->base_mesh().hierarchy) {}
+Sampler::Sampler(std::shared_ptr<const Planet> planet) : planet_(std::move(planet)) {
+  trim();
+}
 
 void Sampler::trim() {
-  hierarchy_ = planet_->base_mesh().hierarchy;
+  // Room for a tile's refinement (about 45 000 triangles and 11 000 vertices at zoom 10) beyond
+  // the base mesh, so the first tiles do not copy the hierarchy as it grows; the pages are only
+  // touched as triangles are made.
+  const Hierarchy& base = planet_->base_mesh().hierarchy;
+  hierarchy_ = Hierarchy(base.rules());
+  hierarchy_.tris.reserve(base.tris.size() + (std::size_t{1} << 17));
+  hierarchy_.vertices.reserve(base.vertices.size() + (std::size_t{1} << 15));
+  hierarchy_.tris = base.tris;
+  hierarchy_.vertices = base.vertices;
   ++generation_;
 }
 
