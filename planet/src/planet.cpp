@@ -243,6 +243,16 @@ PointSample Sampler::at(const Vec3d& p, int level, double octaves, const Descent
   return evaluate(descend(p, level, start), p, level, octaves);
 }
 
+const CloughTocher& Sampler::surface_of(std::int32_t t,
+                                        const std::array<const Vertex*, 3>& corner) {
+  if (surface_tri_ != t || surface_generation_ != generation_ || !surface_) {
+    surface_.emplace(corner, planet_->definition().radius);
+    surface_tri_ = t;
+    surface_generation_ = generation_;
+  }
+  return *surface_;
+}
+
 PointSample Sampler::at_from_root(const Vec3d& p, int level, double octaves) {
   trim_when_large();
   return evaluate(hierarchy_.locate(p, level), p, level, octaves);
@@ -358,7 +368,7 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
   if (tri.face != FaceType::land) {  // under the sea or a lake
     out.ground = w[0] * x.ground + w[1] * y.ground + w[2] * z.ground;
   } else if (all_dry({&x, &y, &z})) {
-    out.ground = clough_tocher({&x, &y, &z}, w, radius);
+    out.ground = surface_of(t, {&x, &y, &z})(w);
   } else {
     out.ground = floored_ground({&x, &y, &z}, w, radius);
   }

@@ -12,12 +12,10 @@ Vec3d scaled_slope(const Vertex& v, double scale) {
 
 }  // namespace
 
-double clough_tocher(const std::array<const Vertex*, 3>& corner, const std::array<double, 3>& w,
-                     double radius) {
+CloughTocher::CloughTocher(const std::array<const Vertex*, 3>& corner, double radius) {
   // Per corner i, with j = i + 1 and k = i + 2 (mod 3): the edge to the next corner, x_j − x_i,
   // and the corner's slope scaled by radius / 3 (Bézier ordinates sit a third of the way).
   std::array<Vec3d, 3> next{}, slope{};
-  std::array<double, 3> f{};
   for (std::size_t i = 0; i < 3; ++i) {
     next[i] = sub(corner[(i + 1) % 3]->p, corner[i]->p);
     slope[i] = scaled_slope(*corner[i], radius / 3.0);
@@ -25,7 +23,6 @@ double clough_tocher(const std::array<const Vertex*, 3>& corner, const std::arra
   }
   // Ordinates next to corner i: towards the next corner, towards the previous one, and on its
   // spoke to the centroid (c − x_i is the mean of the two edges from x_i over 3).
-  std::array<double, 3> to_next{}, to_previous{}, spoke_near{};
   for (std::size_t i = 0; i < 3; ++i) {
     const double along_next = dot(slope[i], next[i]);
     const double along_previous = -dot(slope[i], next[(i + 2) % 3]);
@@ -38,7 +35,6 @@ double clough_tocher(const std::array<const Vertex*, 3>& corner, const std::arra
   // it (a function of the edge's ends only). The foot of the centroid on the edge is
   // alpha·x_i + (1 − alpha)·x_j, alpha = (1 + (x_k − x_j)·(x_i − x_j) / |x_i − x_j|²) / 3, where
   // x_k − x_j = next[j] and x_i − x_j = −next[i].
-  std::array<double, 3> face{};
   for (std::size_t i = 0; i < 3; ++i) {
     const std::size_t j = (i + 1) % 3, k = (i + 2) % 3;
     const double alpha = (1.0 - dot(next[j], next[i]) / dot(next[i], next[i])) / 3.0;
@@ -47,12 +43,13 @@ double clough_tocher(const std::array<const Vertex*, 3>& corner, const std::arra
     face[k] = 0.5 * (at_i + at_j) + alpha * to_next[i] + (1.0 - alpha) * to_previous[j];
   }
   // Inner ordinates: C1 across the spokes between the patches.
-  std::array<double, 3> spoke_far{};  // on corner i's spoke, next to the centroid
   for (std::size_t i = 0; i < 3; ++i) {
     spoke_far[i] = (spoke_near[i] + face[(i + 1) % 3] + face[(i + 2) % 3]) / 3.0;
   }
-  const double centre = (spoke_far[0] + spoke_far[1] + spoke_far[2]) / 3.0;
+  centre = (spoke_far[0] + spoke_far[1] + spoke_far[2]) / 3.0;
+}
 
+double CloughTocher::operator()(const std::array<double, 3>& w) const {
   // The patch holding the point: the one on the edge opposite the smallest coordinate.
   std::size_t k = 0;
   if (w[1] < w[k]) k = 1;

@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -19,6 +20,7 @@
 #include "planet/continent_map.hpp"
 #include "planet/definition.hpp"
 #include "planet/geodesy.hpp"
+#include "planet/smooth_surface.hpp"
 #include "terrain/math.hpp"
 
 namespace planet {
@@ -153,6 +155,9 @@ class Sampler {
  private:
   PointSample evaluate(std::int32_t leaf, const Vec3d& direction, int level, double octaves);
   void trim_when_large();
+  /// The cubic of dry triangle t (its corners `corner`): the last leaf's is kept, for the
+  /// samples that follow in it.
+  const CloughTocher& surface_of(std::int32_t t, const std::array<const Vertex*, 3>& corner);
   /// Triangle t with its edges' planes.
   DescentStart start_at(std::int32_t t) const;
   /// The triangle at `level` holding p: the leaf locate(p, level) finds, bit for bit, descending
@@ -166,8 +171,11 @@ class Sampler {
   /// The last descent's triangles, its start first, each holding the last point (see
   /// DescentStart: any of them that holds the next point by the margin lies on its way down).
   std::vector<DescentStart> path_;
-  int path_level_ = -1;  ///< the level that descent went to
-  DescentStart leaf_;    ///< the last point's leaf, at path_level_
+  int path_level_ = -1;                  ///< the level that descent went to
+  DescentStart leaf_;                    ///< the last point's leaf, at path_level_
+  std::optional<CloughTocher> surface_;  ///< of triangle surface_tri_, this generation's
+  std::int32_t surface_tri_ = -1;
+  std::uint64_t surface_generation_ = 0;
   /// Steps across leaf edges before a point is looked for down the path instead.
   static constexpr int kWalkSteps = 2;
 };

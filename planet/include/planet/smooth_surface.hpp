@@ -31,10 +31,26 @@ inline bool all_dry(const std::array<const Vertex*, 3>& corner) {
   return !wet(*corner[0]) && !wet(*corner[1]) && !wet(*corner[2]);
 }
 
-/// The Clough–Tocher height at gnomonic barycentric coordinates w of the triangle (corners
-/// counter-clockwise or not), from the corners' ground and slope; `radius` in metres.
-double clough_tocher(const std::array<const Vertex*, 3>& corner, const std::array<double, 3>& w,
-                     double radius);
+/// The Clough–Tocher cubic of a triangle (corners counter-clockwise or not), from the corners'
+/// ground and slope; `radius` in metres. Made once, it is evaluated at any number of points of
+/// the triangle (a sampler keeps its last leaf's).
+struct CloughTocher {
+  CloughTocher(const std::array<const Vertex*, 3>& corner, double radius);
+  /// The height at gnomonic barycentric coordinates w.
+  double operator()(const std::array<double, 3>& w) const;
+
+  // The Bézier ordinates: f at the corners; next to corner i, towards the next corner, towards
+  // the previous one, on its spoke to the centroid and next to the centroid; face[k] in the
+  // middle of the patch on the edge opposite corner k; the centroid.
+  std::array<double, 3> f{}, to_next{}, to_previous{}, spoke_near{}, spoke_far{}, face{};
+  double centre = 0.0;
+};
+
+/// The Clough–Tocher height at gnomonic barycentric coordinates w of the triangle.
+inline double clough_tocher(const std::array<const Vertex*, 3>& corner,
+                            const std::array<double, 3>& w, double radius) {
+  return CloughTocher(corner, radius)(w);
+}
 
 /// The slope (metres per metre, tangent at m) of a new vertex from its four neighbours `ring`,
 /// counter-clockwise around it: the area-weighted mean of the gradients of the four triangles
