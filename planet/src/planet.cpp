@@ -1,10 +1,12 @@
 #include "planet/planet.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <numbers>
 
+#include "detail_batch.hpp"
 #include "gradient_noise.hpp"
 #include "planet/smooth_surface.hpp"
 
@@ -188,18 +190,26 @@ terrain::Interval Planet::elevation_range() const {
   return elevation_range_;
 }
 
+detail::DetailOctaves Planet::detail_octaves(double octaves) const {
+  detail::DetailOctaves plan;
+  plan.first = first_detail_octave_;
+  plan.octaves = octaves;
+  plan.amplitude = first_detail_amplitude_;
+  plan.frequency = first_detail_frequency_;
+  plan.gain = detail_gain_;
+  plan.lacunarity = definition().detail.lacunarity;
+  plan.seed = detail_seed_;
+  return plan;
+}
+
 double Planet::detail(const Vec3d& p, double octaves) const {
-  const double lacunarity = definition().detail.lacunarity;
-  double sum = 0.0, amplitude = first_detail_amplitude_, frequency = first_detail_frequency_;
-  for (int k = first_detail_octave_; k < 40 && k < octaves; ++k) {
-    const double weight = std::min(1.0, octaves - k);  // the last octave fades in (geomorphing)
-    const double s = detail::gradient3(p[0] * frequency, p[1] * frequency, p[2] * frequency,
-                                       detail_seed_ + static_cast<std::uint32_t>(k) * 0x9e3779b9U);
-    sum += weight * amplitude * 0.5 * (1.0 + std::clamp(s, -1.0, 1.0));
-    amplitude *= detail_gain_;
-    frequency *= lacunarity;
-  }
-  return sum;
+  return detail::detail_sum(detail_octaves(octaves), p);
+}
+
+void Planet::detail(std::span<const Vec3d> directions, double octaves,
+                    std::span<double> out) const {
+  assert(out.size() >= directions.size());
+  detail::detail_sums(detail_octaves(octaves), directions.data(), directions.size(), out.data());
 }
 
 Sampler::Sampler(std::shared_ptr<const Planet> planet) : planet_(std::move(planet)) {
@@ -337,6 +347,58 @@ DescentStart Sampler::descent_start(const Vec3d& centre, std::span<const Vec3d> 
 }
 
 PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double octaves) {
+  const Undetailed sample = undetailed(t, p, level);
+  if (sample.weight > 0.0 && octaves > 0.0) return finish(sample, planet_->detail(p, octaves));
+  return finish(sample, std::nullopt);
+}
+
+void Sampler::at(std::span<const Vec3d> directions, int level, double octaves,
+                 const DescentStart& start, std::span<PointSample> out) {
+  assert(out.size() >= directions.size());
+  pending_.clear();
+  detailed_.clear();
+  for (const Vec3d& p : directions) {
+    trim_when_large();
+    pending_.push_back(undetailed(descend(p, level, start), p, level));
+    if (pending_.back().weight > 0.0 && octaves > 0.0) detailed_.push_back(p);
+  }
+  detail_.resize(detailed_.size());
+  planet_->detail(detailed_, octaves, detail_);
+  std::size_t next = 0;
+  for (std::size_t i = 0; i < directions.size(); ++i) {
+    const Undetailed& sample = pending_[i];
+    out[i] = sample.weight > 0.0 && octaves > 0.0 ? finish(sample, detail_[next++])
+                                                  : finish(sample, std::nullopt);
+  }
+}
+
+PointSample Sampler::finish(const Undetailed& sample, std::optional<double> detail) const {
+  PointSample out = sample.out;
+  if (detail) out.ground += sample.weight * *detail;
+  const terrain::Interval range = planet_->elevation_range();
+  out.ground = std::clamp(out.ground, static_cast<double>(range.lo), static_cast<double>(range.hi));
+  // A sea or lake face at exactly its water level is still water; on land only water above the
+  // ground counts.
+  const bool open_water = sample.face != FaceType::land;
+  // On land, water stands only in a river's channel (half as wide as the river is deep over the
+  // riverbed slope, §5.3's s_rb): three river vertices around a triangle that no split has yet
+  // separated by a ridge do not make a lake.
+  const bool submerged = open_water
+                             ? sample.water >= out.ground
+                             : sample.water > out.ground && out.river_distance <= sample.channel;
+  if (submerged) {
+    out.water = sample.water;
+    out.type = sample.face == FaceType::sea    ? SurfaceType::sea
+               : sample.face == FaceType::lake ? SurfaceType::lake
+                                               : SurfaceType::river;
+  } else {
+    out.water = out.ground;
+    out.type = sample.coast ? SurfaceType::coast : SurfaceType::land;
+  }
+  return out;
+}
+
+Sampler::Undetailed Sampler::undetailed(std::int32_t t, const Vec3d& p, int level) {
   const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(t)];
   const Vertex& x = hierarchy_.vertices[tri.v[0]];
   const Vertex& y = hierarchy_.vertices[tri.v[1]];
@@ -384,30 +446,14 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
     }
     channel = std::max(channel, (v->water - v->ground) / planet_->definition().min_riverbed_slope);
   }
-  const double water = w[0] * x.water + w[1] * y.water + w[2] * z.water;
-  const double weight = w[0] * x.detail + w[1] * y.detail + w[2] * z.detail;
-  if (weight > 0.0 && octaves > 0.0) out.ground += weight * planet_->detail(p, octaves);
-  const terrain::Interval range = planet_->elevation_range();
-  out.ground = std::clamp(out.ground, static_cast<double>(range.lo), static_cast<double>(range.hi));
-  // A sea or lake face at exactly its water level is still water; on land only water above the
-  // ground counts.
-  const bool open_water = tri.face != FaceType::land;
-  // On land, water stands only in a river's channel (half as wide as the river is deep over the
-  // riverbed slope, §5.3's s_rb): three river vertices around a triangle that no split has yet
-  // separated by a ridge do not make a lake.
-  const bool submerged =
-      open_water ? water >= out.ground : water > out.ground && out.river_distance <= channel;
-  if (submerged) {
-    out.water = water;
-    out.type = tri.face == FaceType::sea    ? SurfaceType::sea
-               : tri.face == FaceType::lake ? SurfaceType::lake
-                                            : SurfaceType::river;
-  } else {
-    out.water = out.ground;
-    const bool coast = ((x.flags | y.flags | z.flags) & kCoast) != 0;
-    out.type = coast ? SurfaceType::coast : SurfaceType::land;
-  }
-  return out;
+  Undetailed sample;
+  sample.out = out;
+  sample.water = w[0] * x.water + w[1] * y.water + w[2] * z.water;
+  sample.weight = w[0] * x.detail + w[1] * y.detail + w[2] * z.detail;
+  sample.channel = channel;
+  sample.face = tri.face;
+  sample.coast = ((x.flags | y.flags | z.flags) & kCoast) != 0;
+  return sample;
 }
 
 nlohmann::json sample_json(double latitude, double longitude, const PointSample& s) {

@@ -159,7 +159,8 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
   // is the one a lone sample gets (see DescentStart); the block only saves the common part of
   // the ~2 levels per zoom that all its samples would descend alike.
   constexpr int kBlock = 16;
-  std::vector<Vec3d> outline;
+  std::vector<Vec3d> outline, block;
+  std::vector<PointSample> samples;
   for (int r0 = 0; r0 < ext; r0 += kBlock) {
     const int r1 = std::min(ext, r0 + kBlock) - 1;
     for (int c0 = 0; c0 < ext; c0 += kBlock) {
@@ -175,9 +176,16 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
       }
       const DescentStart start =
           sampler_.descent_start(direction((r0 + r1) / 2, (c0 + c1) / 2), outline, level);
+      block.clear();
+      for (int r = r0; r <= r1; ++r) {
+        for (int col = c0; col <= c1; ++col) block.push_back(direction(r, col));
+      }
+      samples.resize(block.size());
+      sampler_.at(block, level, octaves, start, samples);
+      std::size_t next = 0;
       for (int r = r0; r <= r1; ++r) {
         for (int col = c0; col <= c1; ++col) {
-          const PointSample sample = sampler_.at(direction(r, col), level, octaves, start);
+          const PointSample& sample = samples[next++];
           const std::size_t at = static_cast<std::size_t>(r) * static_cast<std::size_t>(ext) +
                                  static_cast<std::size_t>(col);
           ground[at] = sample.ground;

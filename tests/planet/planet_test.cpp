@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -298,9 +299,37 @@ TEST(PlanetRefinement, DescentStartsGiveTheSamplesOfADescentFromTheRoot) {
   EXPECT_GT(started, total / 2);
 }
 
+// Tiles add the detail noise to many samples at once, four lanes at a time where the CPU has
+// AVX2: every sum must be the one a lone direction gets, bit for bit, whatever the octave count
+// (fractional ones fade their last octave in) and however many directions (a tail of one to
+// three runs one by one).
+TEST(PlanetDetail, ManyDirectionsAtOnceGiveTheDetailOfEach) {
+  const auto& world = shared_planet();
+  std::mt19937_64 random(13);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (const double octaves : {0.0, 14.5, 17.0, 19.3, 23.75, 31.0, 40.0}) {
+    for (const std::size_t n : {std::size_t{1}, std::size_t{3}, std::size_t{4}, std::size_t{257}}) {
+      std::vector<Vec3d> directions;
+      for (std::size_t i = 0; i < n; ++i) {
+        directions.push_back(normalize({unit(random), unit(random), unit(random)}));
+      }
+      std::vector<double> together(n);
+      world->detail(directions, octaves, together);
+      for (std::size_t i = 0; i < n; ++i) {
+        const double alone = world->detail(directions[i], octaves);
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(together[i]), std::bit_cast<std::uint64_t>(alone))
+            << "octaves " << octaves << ", direction " << i << " of " << n;
+      }
+    }
+  }
+  // The octaves below finest_edge do carry detail (else this would compare zeros).
+  EXPECT_GT(world->detail(normalize({0.3, 0.5, 0.8}), 20.0), 0.0);
+}
+
 // Samples a tile's row apart walk from leaf to leaf, or start from the last descent's path.
 // At the finest level (10 m edges) and at levels whose edges are a few samples long, in rows as
-// tiles take them, every sample lands where a lone descent from the root lands, bit for bit.
+// tiles take them, one by one or a row at once (the detail noise of the row computed together),
+// every sample is the one a lone descent from the root gives, bit for bit.
 TEST(PlanetRefinement, SamplesWalkingFromTheLastLeafGiveTheSamplesOfADescentFromTheRoot) {
   const auto& world = shared_planet();
   std::mt19937_64 random(12);
@@ -314,20 +343,31 @@ TEST(PlanetRefinement, SamplesWalkingFromTheLastLeafGiveTheSamplesOfADescentFrom
     // Samples from a fifth to twice an edge apart.
     const double spacing = world->rules().edge_length(level) * (0.2 + 1.8 * unit(random));
     const double step = spacing / world->definition().radius * 180.0 / std::numbers::pi;
-    Sampler walking(world), lone(world);
+    Sampler walking(world), batch(world), lone(world);
     constexpr int kSide = 24;
+    std::vector<Vec3d> row;
+    std::vector<PointSample> batched(kSide);
+    // Octaves beyond finest_edge's, so that the detail noise is part of what is compared.
+    const double octaves = trial % 3 == 0 ? 0.0 : world->octaves_for_spacing(spacing);
     for (int i = 0; i < kSide; ++i) {
+      row.clear();
       for (int j = 0; j < kSide; ++j) {
         double lo = lon + step * (j - kSide / 2);
         if (lo >= 180.0) lo -= 360.0;
-        const Vec3d p =
-            world->geodesy().direction(std::clamp(lat - step * (i - kSide / 2), -90.0, 90.0), lo);
-        const PointSample a = walking.at(p, level, 1.0);
-        const PointSample b = lone.at_from_root(p, level, 1.0);
-        ASSERT_EQ(a.ground, b.ground) << lat << ", " << lon << " level " << level;
-        ASSERT_EQ(a.water, b.water);
-        ASSERT_EQ(a.type, b.type);
-        ASSERT_EQ(a.river_distance, b.river_distance);
+        row.push_back(
+            world->geodesy().direction(std::clamp(lat - step * (i - kSide / 2), -90.0, 90.0), lo));
+      }
+      batch.at(row, level, octaves, DescentStart{}, batched);
+      for (int j = 0; j < kSide; ++j) {
+        const Vec3d& p = row[static_cast<std::size_t>(j)];
+        const PointSample b = lone.at_from_root(p, level, octaves);
+        for (const PointSample& a :
+             {walking.at(p, level, octaves), batched[static_cast<std::size_t>(j)]}) {
+          ASSERT_EQ(a.ground, b.ground) << lat << ", " << lon << " level " << level;
+          ASSERT_EQ(a.water, b.water);
+          ASSERT_EQ(a.type, b.type);
+          ASSERT_EQ(a.river_distance, b.river_distance);
+        }
       }
     }
   }

@@ -25,6 +25,10 @@
 
 namespace planet {
 
+namespace detail {
+struct DetailOctaves;
+}
+
 /// What lies at a point (the `type` of sample?lat=&lon=). `lake`: under a lake's water.
 enum class SurfaceType { sea, coast, land, river, lake };
 std::string_view surface_name(SurfaceType type);
@@ -84,9 +88,13 @@ class Planet {
   /// over the octaves shorter than finest_edge (the mesh carries the longer ones), so it only
   /// ever raises the ground (water stays in its bed, coasts stay coasts).
   double detail(const Vec3d& direction, double octaves) const;
+  /// The same at many directions, into out[0, directions.size()): the same bits, several at
+  /// once where the CPU has vectors for it.
+  void detail(std::span<const Vec3d> directions, double octaves, std::span<double> out) const;
 
  private:
   Planet(const PlanetDefinition& definition, const BuildOptions& options, const ContinentMap* map);
+  detail::DetailOctaves detail_octaves(double octaves) const;
   std::unique_ptr<BaseMesh> base_;
   Geodesy geodesy_;
   std::string id_;
@@ -144,6 +152,11 @@ class Sampler {
   /// The same, descending from the octahedron as a lone sample does: what every start, path and
   /// walk must agree with, bit for bit (the tests' reference).
   PointSample at_from_root(const Vec3d& direction, int level, double octaves);
+  /// Many samples, into out[0, directions.size()): each what at(direction, level, octaves,
+  /// start) gives, bit for bit, with the detail noise of all of them computed together (several
+  /// at once where the CPU has vectors for it).
+  void at(std::span<const Vec3d> directions, int level, double octaves, const DescentStart& start,
+          std::span<PointSample> out);
   /// The deepest triangle, at most `level`, on the way down to `centre` that holds every one
   /// of `points` by the margin: a start for the samples in and around them.
   DescentStart descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level);
@@ -153,7 +166,19 @@ class Sampler {
   void trim();
 
  private:
+  /// A sample before its detail noise, and what adding it needs.
+  struct Undetailed {
+    PointSample out;  ///< ground before the detail and its clamp; level and river fields final
+    double water = 0.0;
+    double weight = 0.0;   ///< of the detail
+    double channel = 0.0;  ///< metres from a river in which its water stands
+    FaceType face = FaceType::sea;
+    bool coast = false;
+  };
   PointSample evaluate(std::int32_t leaf, const Vec3d& direction, int level, double octaves);
+  Undetailed undetailed(std::int32_t leaf, const Vec3d& direction, int level);
+  /// The sample with `detail` added (none: no detail at all), clamped, and its water and type.
+  PointSample finish(const Undetailed& sample, std::optional<double> detail) const;
   void trim_when_large();
   /// The cubic of dry triangle t (its corners `corner`): the last leaf's is kept, for the
   /// samples that follow in it.
@@ -171,8 +196,12 @@ class Sampler {
   /// The last descent's triangles, its start first, each holding the last point (see
   /// DescentStart: any of them that holds the next point by the margin lies on its way down).
   std::vector<DescentStart> path_;
-  int path_level_ = -1;                  ///< the level that descent went to
-  DescentStart leaf_;                    ///< the last point's leaf, at path_level_
+  int path_level_ = -1;  ///< the level that descent went to
+  DescentStart leaf_;    ///< the last point's leaf, at path_level_
+  // Scratch of the batch at(): kept between calls so that a tile allocates nothing.
+  std::vector<Undetailed> pending_;
+  std::vector<Vec3d> detailed_;
+  std::vector<double> detail_;
   std::optional<CloughTocher> surface_;  ///< of triangle surface_tri_, this generation's
   std::int32_t surface_tri_ = -1;
   std::uint64_t surface_generation_ = 0;

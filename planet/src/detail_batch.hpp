@@ -1,0 +1,31 @@
+// The planet's fractal detail (Planet::detail) for many directions at once: four at a time in
+// AVX2 vectors where the CPU has them, else one by one. Every lane computes what the scalar
+// noise (gradient_noise.hpp) computes, operation for operation, so the sums are the same bits.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "planet/mesh.hpp"
+
+namespace planet::detail {
+
+/// The octaves of one sum: k from `first` while k < 40 and k < `octaves` (the last one faded in
+/// by its fractional part), octave `first` with `amplitude` and `frequency`, each next one
+/// `gain` times as high and `lacunarity` times as fine, octave k's noise seeded with
+/// seed + k·0x9e3779b9.
+struct DetailOctaves {
+  int first = 0;
+  double octaves = 0.0;
+  double amplitude = 0.0, frequency = 0.0;
+  double gain = 0.5, lacunarity = 2.0;
+  std::uint32_t seed = 0;
+};
+
+/// Σ_k weight_k · a_k · (1 + clamp(S(p f_k), −1, 1)) / 2 at one direction.
+double detail_sum(const DetailOctaves& plan, const Vec3d& p);
+
+/// detail_sum at each of `n` directions, into `out`: the same bits as one by one.
+void detail_sums(const DetailOctaves& plan, const Vec3d* p, std::size_t n, double* out);
+
+}  // namespace planet::detail
