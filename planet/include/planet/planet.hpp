@@ -206,7 +206,7 @@ class Sampler {
   std::int32_t surface_tri_ = -1;
   std::uint64_t surface_generation_ = 0;
   /// Steps across leaf edges before a point is looked for down the path instead.
-  static constexpr int kWalkSteps = 2;
+  static constexpr int kWalkSteps = 4;
 };
 
 /// {"latitude", "longitude", "ground", "water", "type", "level"}: the sample route's body.
