@@ -202,6 +202,10 @@ detail::DetailOctaves Planet::detail_octaves(double octaves) const {
   return plan;
 }
 
+bool Planet::has_detail_octaves(double octaves) const {
+  return first_detail_octave_ < 40 && first_detail_octave_ < octaves;
+}
+
 double Planet::detail(const Vec3d& p, double octaves) const {
   return detail::detail_sum(detail_octaves(octaves), p);
 }
@@ -355,6 +359,13 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
 void Sampler::at(std::span<const Vec3d> directions, int level, double octaves,
                  const DescentStart& start, std::span<PointSample> out) {
   assert(out.size() >= directions.size());
+  if (!planet_->has_detail_octaves(octaves)) {  // nothing to batch: the noise sums no octave
+    for (std::size_t i = 0; i < directions.size(); ++i) {
+      trim_when_large();
+      out[i] = evaluate(descend(directions[i], level, start), directions[i], level, octaves);
+    }
+    return;
+  }
   pending_.clear();
   detailed_.clear();
   for (const Vec3d& p : directions) {

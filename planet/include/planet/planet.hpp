@@ -88,6 +88,9 @@ class Planet {
   /// over the octaves shorter than finest_edge (the mesh carries the longer ones), so it only
   /// ever raises the ground (water stays in its bed, coasts stay coasts).
   double detail(const Vec3d& direction, double octaves) const;
+  /// Whether `octaves` reach below finest_edge, where the noise has octaves to sum (else detail
+  /// is 0 everywhere).
+  bool has_detail_octaves(double octaves) const;
   /// The same at many directions, into out[0, directions.size()): the same bits, several at
   /// once where the CPU has vectors for it.
   void detail(std::span<const Vec3d> directions, double octaves, std::span<double> out) const;
