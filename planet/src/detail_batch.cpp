@@ -5,22 +5,17 @@
 #include <cmath>
 
 #include "gradient_noise.hpp"
+#include "terrain/simd.hpp"
 
-#if defined(__x86_64__) && !defined(__SANITIZE_THREAD__) && !defined(__clang__)
-// Function multiversioning as terrain's noise does it (terrain/src/simd.hpp): not under
-// ThreadSanitizer, whose runtime does not exist yet when the loader picks a version, nor under
-// clang (the fuzz preset), which multiversions differently.
-#define PLANET_DETAIL_AVX2 1
+#if TERRAIN_MULTIVERSION
 #include <immintrin.h>
-#else
-#define PLANET_DETAIL_AVX2 0
 #endif
 
 namespace planet::detail {
 
 double detail_sum(const DetailOctaves& plan, const Vec3d& p) {
   double sum = 0.0, amplitude = plan.amplitude, frequency = plan.frequency;
-  for (int k = plan.first; k < 40 && k < plan.octaves; ++k) {
+  for (int k = plan.first; plan.covers(k); ++k) {
     const double weight = std::min(1.0, plan.octaves - k);  // the last octave fades in
     const double s = gradient3(p[0] * frequency, p[1] * frequency, p[2] * frequency,
                                plan.seed + static_cast<std::uint32_t>(k) * 0x9e3779b9U);
@@ -37,7 +32,7 @@ void sums_one_by_one(const DetailOctaves& plan, const Vec3d* p, std::size_t n, d
   for (std::size_t i = 0; i < n; ++i) out[i] = detail_sum(plan, p[i]);
 }
 
-#if PLANET_DETAIL_AVX2
+#if TERRAIN_MULTIVERSION
 
 using V4d = double __attribute__((vector_size(32)));
 using V4u64 = std::uint64_t __attribute__((vector_size(32)));
@@ -120,7 +115,7 @@ using V4u32 = std::uint32_t __attribute__((vector_size(16)));
     const V4d pz = {p[i][2], p[i + 1][2], p[i + 2][2], p[i + 3][2]};
     V4d sum = {0.0, 0.0, 0.0, 0.0};
     double amplitude = plan.amplitude, frequency = plan.frequency;
-    for (int k = plan.first; k < 40 && k < plan.octaves; ++k) {
+    for (int k = plan.first; plan.covers(k); ++k) {
       const double weight = std::min(1.0, plan.octaves - k);
       V4d s = gradient4(px * frequency, py * frequency, pz * frequency,
                         plan.seed + static_cast<std::uint32_t>(k) * 0x9e3779b9U);
@@ -135,30 +130,38 @@ using V4u32 = std::uint32_t __attribute__((vector_size(16)));
   sums_one_by_one(plan, p + i, n - i, out + i);
 }
 
-[[gnu::target("default")]] bool has_avx2() {
-  return false;
-}
-[[gnu::target("avx2")]] bool has_avx2() {
-  return true;
+#endif
+
+// One version per instruction set, picked when the program loads (as terrain's noise is): the
+// baseline sums one direction at a time, AVX2 four. The versions and their callers must share a
+// translation unit: a caller that sees only a plain declaration calls the baseline.
+#if TERRAIN_MULTIVERSION
+[[gnu::target("default")]]
+#endif
+void sums(const DetailOctaves& plan, const Vec3d* p, std::size_t n, double* out) {
+  sums_one_by_one(plan, p, n, out);
 }
 
+#if TERRAIN_MULTIVERSION
+[[gnu::target("avx2")]] void sums(const DetailOctaves& plan, const Vec3d* p, std::size_t n,
+                                  double* out) {
+  // The lanes take a cell coordinate's low 32 bits through a double (low_bits), exact below
+  // 2^51: far beyond any octave a tile asks for (a metre on an Earth-sized sphere is 2^23),
+  // but checked.
+  double finest = plan.frequency;
+  for (int k = plan.first + 1; plan.covers(k); ++k) finest *= plan.lacunarity;
+  if (finest < 0x1p50) {
+    sums_by_four(plan, p, n, out);
+  } else {
+    sums_one_by_one(plan, p, n, out);
+  }
+}
 #endif
 
 }  // namespace
 
 void detail_sums(const DetailOctaves& plan, const Vec3d* p, std::size_t n, double* out) {
-#if PLANET_DETAIL_AVX2
-  // The lanes take a cell coordinate's low 32 bits through a double (low_bits), exact below
-  // 2^51: far beyond any octave a tile asks for (a metre on an Earth-sized sphere is 2^23),
-  // but checked.
-  double finest = plan.frequency;
-  for (int k = plan.first + 1; k < 40 && k < plan.octaves; ++k) finest *= plan.lacunarity;
-  if (has_avx2() && finest < 0x1p50) {
-    sums_by_four(plan, p, n, out);
-    return;
-  }
-#endif
-  sums_one_by_one(plan, p, n, out);
+  sums(plan, p, n, out);
 }
 
 }  // namespace planet::detail

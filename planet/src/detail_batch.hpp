@@ -20,6 +20,9 @@ struct DetailOctaves {
   double amplitude = 0.0, frequency = 0.0;
   double gain = 0.5, lacunarity = 2.0;
   std::uint32_t seed = 0;
+
+  /// Whether octave k is summed (k ≥ first).
+  bool covers(int k) const { return k < 40 && k < octaves; }
 };
 
 /// Σ_k weight_k · a_k · (1 + clamp(S(p f_k), −1, 1)) / 2 at one direction.

@@ -203,7 +203,7 @@ detail::DetailOctaves Planet::detail_octaves(double octaves) const {
 }
 
 bool Planet::has_detail_octaves(double octaves) const {
-  return first_detail_octave_ < 40 && first_detail_octave_ < octaves;
+  return detail_octaves(octaves).covers(first_detail_octave_);
 }
 
 double Planet::detail(const Vec3d& p, double octaves) const {
@@ -259,7 +259,7 @@ PointSample Sampler::at(const Vec3d& p, int level, double octaves, const Descent
 
 const CloughTocher& Sampler::surface_of(std::int32_t t,
                                         const std::array<const Vertex*, 3>& corner) {
-  if (surface_tri_ != t || surface_generation_ != generation_ || !surface_) {
+  if (surface_tri_ != t || surface_generation_ != generation_) {  // t ≥ 0: emplaced below
     surface_.emplace(corner, planet_->definition().radius);
     surface_tri_ = t;
     surface_generation_ = generation_;

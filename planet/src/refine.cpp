@@ -631,11 +631,7 @@ std::int32_t Hierarchy::locate_child(std::int32_t t, const Vec3d& p) const {
 }
 
 std::int32_t Hierarchy::locate(const Vec3d& p, int level) {
-  return locate_from(root_face(p), p, level);
-}
-
-std::int32_t Hierarchy::locate_from(std::int32_t start, const Vec3d& p, int level) {
-  std::int32_t t = start;
+  std::int32_t t = root_face(p);
   while (tris[static_cast<std::size_t>(t)].level < level) {
     ensure_split(t);
     t = locate_child(t, p);

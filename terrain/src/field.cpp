@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "simd.hpp"
+#include "terrain/simd.hpp"
 
 namespace terrain {
 

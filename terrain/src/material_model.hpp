@@ -8,8 +8,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "simd.hpp"
 #include "terrain/material.hpp"
+#include "terrain/simd.hpp"
 
 namespace terrain::material_model {
 

@@ -21,7 +21,7 @@
 #include <memory>
 #include <type_traits>
 
-#include "simd.hpp"
+#include "terrain/simd.hpp"
 
 #define TERRAIN_NOISE_INLINE [[gnu::always_inline]] inline
 

@@ -9,8 +9,8 @@
 #include <cstdio>
 #include <string>
 
-#include "simd.hpp"
 #include "terrain/node.hpp"
+#include "terrain/simd.hpp"
 
 namespace terrain {
 namespace {

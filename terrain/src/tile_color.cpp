@@ -6,9 +6,9 @@
 #include <string>
 
 #include "material_model.hpp"
-#include "simd.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/material.hpp"
+#include "terrain/simd.hpp"
 #include "tile_encoding_checks.hpp"
 
 namespace terrain {

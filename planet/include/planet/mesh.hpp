@@ -202,9 +202,6 @@ class Hierarchy {
   std::int32_t root_face(const Vec3d& p) const;
   /// The triangle at `level` holding p, splitting what is needed on the way.
   std::int32_t locate(const Vec3d& p, int level);
-  /// The same descent continued from `start`, a triangle on p's way down from the root (see
-  /// DescentStart): the same result as locate(p, level) for such a start.
-  std::int32_t locate_from(std::int32_t start, const Vec3d& p, int level);
   /// Of the four children of t's split diamond, the one holding p.
   std::int32_t locate_child(std::int32_t t, const Vec3d& p) const;
 

@@ -4,8 +4,8 @@
 
 #include <algorithm>
 
-#include "simd.hpp"
 #include "terrain/field.hpp"
+#include "terrain/simd.hpp"
 
 namespace terrain {
 

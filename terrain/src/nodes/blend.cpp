@@ -5,8 +5,8 @@
 #include <limits>
 
 #include "field_reader.hpp"
-#include "simd.hpp"
 #include "terrain/scene.hpp"
+#include "terrain/simd.hpp"
 
 namespace terrain {
 namespace {

@@ -4,7 +4,7 @@
 #include <numbers>
 
 #include "field_reader.hpp"
-#include "simd.hpp"
+#include "terrain/simd.hpp"
 
 namespace terrain {
 namespace {

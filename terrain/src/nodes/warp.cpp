@@ -5,7 +5,7 @@
 
 #include "field_reader.hpp"
 #include "nodes/fractal_params.hpp"
-#include "simd.hpp"
+#include "terrain/simd.hpp"
 
 namespace terrain {
 namespace {

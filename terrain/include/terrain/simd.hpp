@@ -1,6 +1,6 @@
 // Helpers for the loops over a block of points that GCC vectorises (noise, node kernels, blend
-// accumulation): clones for AVX-512, AVX2 and the baseline chosen at run time, and branch-free
-// selects on float bit patterns. Under the default -ftrapping-math GCC will not if-convert a
+// accumulation, the planet's detail noise): clones for AVX-512, AVX2 and the baseline chosen at
+// run time, and branch-free selects on float bit patterns. Under the default -ftrapping-math GCC will not if-convert a
 // float `c ? a : b` whose operands need arithmetic (it keeps them behind branches, and the loop
 // stays scalar); a select on the bits vectorises. A select returns one of its operands bit for
 // bit and the project builds with -ffp-contract=off, so every clone computes the same numbers.
