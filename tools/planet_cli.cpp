@@ -19,6 +19,7 @@
 #include "planet/planet.hpp"
 #include "planet/tiles.hpp"
 #include "terrain/gzip.hpp"
+#include "terrain/image_io.hpp"
 
 namespace {
 
@@ -38,9 +39,10 @@ Usage:
                                          webmercator (EPSG:3857 XYZ, height images)
   planet layer-json PLANET.json          Cesium layer.json for the planet's tiles
   planet analyze PLANET.json LAT LON [--zoom Z | --cell M] [--size N] [--channel-area A]
-                                         geomorphometry of N × N samples (default 512) around
+       [--picture FILE.png]              geomorphometry of N × N samples (default 512) around
                                          LAT, LON, M metres apart (default: a zoom-Z tile's
-                                         spacing, Z = 8): docs/analysis.md
+                                         spacing, Z = 8), and a picture of its drainage:
+                                         docs/analysis.md
   planet hypsometry PLANET.json [--samples N] [--cell M]
                                          the land's altitudes over the whole planet: N points
                                          (default 20 000) at M metres' detail (default 200)
@@ -326,11 +328,23 @@ int run(const Args& args) {
                       options.analysis.channel_area)) {
       return 2;
     }
-    Result<nlohmann::json> figures = analyze_planet(world, options);
+    terrain::AnalysisPicture picture;
+    const std::string picture_path = args.get("--picture", "");
+    Result<nlohmann::json> figures =
+        analyze_planet(world, options, picture_path.empty() ? nullptr : &picture);
     if (!figures) {
       std::cerr << "planet analyze: " << figures.error().pointer << ": " << figures.error().message
                 << "\n";
       return 2;
+    }
+    if (!picture_path.empty()) {
+      if (terrain::Status written =
+              terrain::write_png_rgb8(picture_path, picture.width, picture.height,
+                                      picture.rgb.data(), terrain::PngKind::shaded);
+          !written) {
+        std::cerr << "planet analyze: " << picture_path << ": " << written.error().message << "\n";
+        return 1;
+      }
     }
     std::cout << figures->dump(2) << "\n";
     return 0;

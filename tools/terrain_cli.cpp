@@ -65,10 +65,11 @@ Usage:
 
 constexpr const char* kUsageEnd =
     R"(  terrain analyze SCENE.json|DEM.{tif,png} [--size N] [--area X0,Y0,X1,Y1] [--cell M]
-       [--z-scale F] [--sea-level Z] [--channel-area M2]
+       [--z-scale F] [--sea-level Z] [--channel-area M2] [--picture FILE.png]
                                          geomorphometry as JSON: pits, closed depressions,
-                                         Flint's law, Strahler orders, Horton ratio, drainage
-                                         density, hypsometric integral (docs/analysis.md)
+                                         Flint's law and the slope–area profile, Strahler
+                                         orders, Horton ratio, drainage density, hypsometric
+                                         integral; a picture of the drainage (docs/analysis.md)
   terrain program SCENE.json             the compiled program as JSON
   terrain nodes                          every node type: summary and example (JSON)
   terrain --help
@@ -405,6 +406,16 @@ int cmd_analyze(const Args& args) {
     }
     sea_level = static_cast<float>(*z);
   }
+  AnalysisPicture picture;
+  const std::string picture_path = args.get("--picture", "");
+  const auto write_picture = [&] {
+    if (picture_path.empty()) return true;
+    const Status written = write_png_rgb8(picture_path, picture.width, picture.height,
+                                          picture.rgb.data(), PngKind::shaded);
+    if (!written)
+      std::cerr << "terrain analyze: " << picture_path << ": " << written.error().message << "\n";
+    return static_cast<bool>(written);
+  };
   nlohmann::json input{{"path", path}};
   std::vector<float> elevation;
   std::vector<std::uint8_t> water;
@@ -457,23 +468,27 @@ int cmd_analyze(const Args& args) {
         return 2;
       }
     }
-    Result<nlohmann::json> analysis = analyze_scene(scene, program, scene_options);
+    Result<nlohmann::json> analysis =
+        analyze_scene(scene, program, scene_options, picture_path.empty() ? nullptr : &picture);
     if (!analysis) {
       std::cerr << "terrain analyze: " << path << ": " << analysis.error().pointer << ": "
                 << analysis.error().message << "\n";
       return 1;
     }
+    if (!write_picture()) return 1;
     (*analysis)["input"]["path"] = path;
     std::cout << analysis->dump(2) << "\n";
     return 0;
   }
   ElevationGrid grid{width, height, cell, elevation, sea_level, water};
-  Result<Geomorphometry> figures = analyze(grid, options);
+  Result<Geomorphometry> figures =
+      picture_path.empty() ? analyze(grid, options) : analyze(grid, options, picture);
   if (!figures) {
     std::cerr << "terrain analyze: " << figures.error().pointer << ": " << figures.error().message
               << "\n";
     return 1;
   }
+  if (!write_picture()) return 1;
   nlohmann::json out = to_json(*figures);
   out["input"] = input;
   if (sea_level) out["input"]["sea_level_m"] = *sea_level;

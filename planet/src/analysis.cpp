@@ -13,7 +13,8 @@
 namespace planet {
 
 terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Planet>& planet,
-                                               const PlanetAnalysisOptions& options) {
+                                               const PlanetAnalysisOptions& options,
+                                               terrain::AnalysisPicture* picture) {
   using terrain::Error;
   if (!(std::abs(options.latitude) <= 85.0)) {
     return Error{"must be a latitude from -85 to 85 degrees", "/latitude"};
@@ -71,7 +72,9 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
     }
   }
   const terrain::ElevationGrid grid{n, n, cell, elevation, std::nullopt, sea, wet};
-  terrain::Result<terrain::Geomorphometry> figures = terrain::analyze(grid, options.analysis);
+  terrain::Result<terrain::Geomorphometry> figures =
+      picture != nullptr ? terrain::analyze(grid, options.analysis, *picture)
+                         : terrain::analyze(grid, options.analysis);
   if (!figures) return figures.error();
   nlohmann::json out = terrain::to_json(*figures);
   out["input"] = {{"kind", "planet"},

@@ -48,8 +48,11 @@ Outcome App::scene_analysis(const Request& request, const LoadedVersion& loaded,
     }
     options.analysis.channel_area = *a;
   }
-  const std::string key = loaded.version.hash + "|analysis.json|" + std::to_string(options.size) +
-                          "|" + target.get("sea_level", "-") + "|" +
+  // The body's format is part of the key (kAnalysisFormat): a shared cache may hold another
+  // release's analysis of the same scene.
+  const std::string key = loaded.version.hash + "|analysis.json|" +
+                          std::to_string(terrain::kAnalysisFormat) + "|" +
+                          std::to_string(options.size) + "|" + target.get("sea_level", "-") + "|" +
                           target.get("channel_area", "-");
   ProductJob job;
   job.key = key;

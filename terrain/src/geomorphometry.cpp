@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 namespace terrain {
 namespace {
@@ -42,6 +43,73 @@ std::optional<Line> fit_line(const std::vector<double>& x, const std::vector<dou
   // r² = 1 − SS_res / SS_tot = (S_xy)² / (S_xx · S_yy); a perfect fit when y does not vary.
   line.r_squared = syy > 0.0 ? (sxy * sxy) / (sxx * syy) : 1.0;
   return line;
+}
+
+/// Whether dry land cell (i, j) is a pit: not on the edge (edge cells are outlets), with no D8
+/// neighbour strictly lower on the raw surface, a neighbour that is not land counting as lower.
+bool is_pit(const ElevationGrid& grid, const Drainage& d, int i, int j) {
+  const int w = d.width;
+  if (i == 0 || j == 0 || i == w - 1 || j == d.height - 1) return false;
+  const std::size_t c =
+      static_cast<std::size_t>(j) * static_cast<std::size_t>(w) + static_cast<std::size_t>(i);
+  for (int k = 0; k < 8; ++k) {
+    const std::size_t nc = static_cast<std::size_t>(j + kD8Dy[k]) * static_cast<std::size_t>(w) +
+                           static_cast<std::size_t>(i + kD8Dx[k]);
+    if (d.land[nc] == 0 || grid.elevation[nc] < grid.elevation[c]) return false;
+  }
+  return true;
+}
+
+/// S at rank ⌈q·n⌉ of the sorted slopes (nearest rank).
+double nearest_rank(const std::vector<double>& sorted, double q) {
+  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(sorted.size())));
+  return sorted[std::clamp<std::size_t>(rank, 1, sorted.size()) - 1];
+}
+
+/// The slope–area profile (Geomorphometry::slope_area) over every land cell with a receiver, a
+/// positive slope on the raw surface and no standing water over it.
+std::vector<SlopeAreaBin> slope_area_profile(const ElevationGrid& grid, const Drainage& d,
+                                             const std::vector<std::uint8_t>& channel) {
+  // Bin k holds areas in [10^(k/4), 10^((k+1)/4)); a cell drains at least its own area, and
+  // the grid's largest area bounds k, so a few dozen bins at most.
+  std::vector<std::vector<double>> slopes;
+  std::vector<std::int64_t> channels;
+  int first = std::numeric_limits<int>::max();
+  std::vector<std::pair<int, double>> binned;  // (k, S) per cell, in linear index order
+  std::vector<std::uint8_t> in_channel;
+  for (std::size_t c = 0; c < d.cells(); ++c) {
+    const std::int32_t r = d.receiver[c];
+    if (d.land[c] == 0 || r < 0) continue;
+    if (!grid.wet.empty() && grid.wet[c] == kStandingWater) continue;
+    const double slope = (static_cast<double>(grid.elevation[c]) -
+                          static_cast<double>(grid.elevation[static_cast<std::size_t>(r)])) /
+                         d8_distance(d, static_cast<std::int32_t>(c), r);
+    if (!(std::isfinite(slope) && slope > 0.0)) continue;
+    const int k = static_cast<int>(std::floor(4.0 * std::log10(d.area[c])));
+    first = std::min(first, k);
+    binned.emplace_back(k, slope);
+    in_channel.push_back(channel[c]);
+  }
+  for (std::size_t i = 0; i < binned.size(); ++i) {
+    const auto at = static_cast<std::size_t>(binned[i].first - first);
+    if (at >= slopes.size()) {
+      slopes.resize(at + 1);
+      channels.resize(at + 1, 0);
+    }
+    slopes[at].push_back(binned[i].second);
+    channels[at] += in_channel[i];
+  }
+  std::vector<SlopeAreaBin> bins;
+  for (std::size_t at = 0; at < slopes.size(); ++at) {
+    std::vector<double>& v = slopes[at];
+    if (v.empty()) continue;
+    std::sort(v.begin(), v.end());
+    const int k = first + static_cast<int>(at);
+    bins.push_back({std::pow(10.0, k / 4.0), std::pow(10.0, (k + 1) / 4.0),
+                    static_cast<std::int64_t>(v.size()), channels[at], nearest_rank(v, 0.1),
+                    nearest_rank(v, 0.5), nearest_rank(v, 0.9)});
+  }
+  return bins;
 }
 
 /// The Strahler streams of one channel network: a stream of order ω starts at each channel cell
@@ -272,15 +340,7 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
         continue;
       }
       if (d.filled[c] - z > options.depression_epsilon) ++g.depression_cells;
-      if (i == 0 || j == 0 || i == w - 1 || j == h - 1) continue;  // edge cells are outlets
-      bool lower = false;
-      for (int k = 0; k < 8 && !lower; ++k) {
-        const std::size_t nc =
-            static_cast<std::size_t>(j + kD8Dy[k]) * static_cast<std::size_t>(w) +
-            static_cast<std::size_t>(i + kD8Dx[k]);
-        lower = d.land[nc] == 0 || raw[nc] < raw[c];
-      }
-      if (!lower) ++g.pits;
+      if (is_pit(grid, d, i, j)) ++g.pits;
     }
   }
   if (g.land_cells > 0) {
@@ -322,11 +382,86 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
                        static_cast<std::int64_t>(log_area.size())};
   }
 
+  g.slope_area = slope_area_profile(grid, d, channel);
+
   const StreamNetwork network = trace_streams(d, channel);
   g.max_strahler_order = static_cast<int>(network.streams_per_order.size());
   g.streams_per_order = network.streams_per_order;
   g.bifurcation_ratio = bifurcation_ratio(network.streams_per_order);
   return g;
+}
+
+Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options,
+                               AnalysisPicture& picture) {
+  if (Status valid = validate(options); !valid) return valid.error();
+  Result<Drainage> drainage = route_drainage(grid);
+  if (!drainage) return drainage.error();
+  Result<Geomorphometry> figures = analyze(grid, *drainage, options);
+  if (figures) picture = draw_drainage(grid, *drainage, *figures);
+  return figures;
+}
+
+AnalysisPicture draw_drainage(const ElevationGrid& grid, const Drainage& d,
+                              const Geomorphometry& figures) {
+  const int w = d.width, h = d.height;
+  AnalysisPicture picture{w, h, std::vector<std::uint8_t>(d.cells() * 3)};
+  // Light from the north-west, 45° up: a unit vector (−1, 1, √2)/2 against the surface normal
+  // (−∂z/∂x, −∂z/∂y, 1) of central differences (one-sided on the grid's edge).
+  const auto z = [&](int i, int j) {
+    return static_cast<double>(
+        grid.elevation[static_cast<std::size_t>(j) * static_cast<std::size_t>(w) +
+                       static_cast<std::size_t>(i)]);
+  };
+  const double log_threshold = std::log10(std::max(figures.channel_area, 1e-300));
+  const double log_largest = std::log10(std::max(figures.max_drainage_area, figures.channel_area));
+  const double span = std::max(log_largest - log_threshold, 1.0);
+  for (int j = 0; j < h; ++j) {
+    for (int i = 0; i < w; ++i) {
+      const std::size_t c =
+          static_cast<std::size_t>(j) * static_cast<std::size_t>(w) + static_cast<std::size_t>(i);
+      // The grid's last row is its northern edge, the picture's first.
+      std::uint8_t* rgb =
+          &picture.rgb[(static_cast<std::size_t>(h - 1 - j) * static_cast<std::size_t>(w) +
+                        static_cast<std::size_t>(i)) *
+                       3];
+      const auto paint = [&](double r, double g, double b) {
+        rgb[0] = static_cast<std::uint8_t>(std::clamp(r, 0.0, 255.0));
+        rgb[1] = static_cast<std::uint8_t>(std::clamp(g, 0.0, 255.0));
+        rgb[2] = static_cast<std::uint8_t>(std::clamp(b, 0.0, 255.0));
+      };
+      if (d.land[c] == 0) {
+        paint(20, 40, 110);  // sea, water and no data
+        continue;
+      }
+      const std::uint8_t wet = grid.wet.empty() ? 0 : grid.wet[c];
+      if (wet == kStandingWater) {
+        paint(60, 110, 200);
+        continue;
+      }
+      if (wet == kFlowingWater) {
+        paint(0, 200, 255);
+        continue;
+      }
+      if (is_pit(grid, d, i, j)) {
+        paint(230, 20, 20);
+        continue;
+      }
+      if (d.area[c] >= figures.channel_area) {  // darker blue as the channel drains more
+        const double t = std::clamp((std::log10(d.area[c]) - log_threshold) / span, 0.0, 1.0);
+        paint(60.0 * (1.0 - t), 150.0 - 110.0 * t, 255.0 - 55.0 * t);
+        continue;
+      }
+      const int i0 = std::max(i - 1, 0), i1 = std::min(i + 1, w - 1);
+      const int j0 = std::max(j - 1, 0), j1 = std::min(j + 1, h - 1);
+      const double dx = i1 > i0 ? (z(i1, j) - z(i0, j)) / ((i1 - i0) * d.cell_size) : 0.0;
+      const double dy = j1 > j0 ? (z(i, j1) - z(i, j0)) / ((j1 - j0) * d.cell_size) : 0.0;
+      const double lit =
+          (dx - dy + std::numbers::sqrt2) / (2.0 * std::sqrt(1.0 + dx * dx + dy * dy));
+      const double grey = std::isfinite(lit) ? 40.0 + 215.0 * std::clamp(lit, 0.0, 1.0) : 0.0;
+      paint(grey, grey, grey);
+    }
+  }
+  return picture;
 }
 
 std::string_view threshold_rule_name(ChannelThreshold rule) {
@@ -351,6 +486,15 @@ nlohmann::json to_json(const Geomorphometry& g) {
              {"k_s", g.flint->steepness},
              {"r_squared", g.flint->r_squared},
              {"cells", g.flint->cells}};
+  }
+  nlohmann::json slope_area = nlohmann::json::array();
+  for (const SlopeAreaBin& bin : g.slope_area) {
+    slope_area.push_back({{"area_m2", {bin.area_from, bin.area_to}},
+                          {"cells", bin.cells},
+                          {"channel_cells", bin.channel_cells},
+                          {"slope_p10", bin.slope_p10},
+                          {"slope_median", bin.slope_median},
+                          {"slope_p90", bin.slope_p90}});
   }
   nlohmann::json drops = nlohmann::json::array();
   for (const DropTest& test : g.drop_analysis) {
@@ -383,6 +527,7 @@ nlohmann::json to_json(const Geomorphometry& g) {
         {"drop_analysis", drops}}},
       {"drainage_density_per_km", g.drainage_density},
       {"flint", flint},
+      {"slope_area", slope_area},
       {"strahler",
        {{"max_order", g.max_strahler_order},
         {"streams_per_order", g.streams_per_order},

@@ -10,7 +10,8 @@
 namespace terrain {
 
 Result<nlohmann::json> analyze_scene(const Scene& scene, const Program& program,
-                                     const SceneAnalysisOptions& options) {
+                                     const SceneAnalysisOptions& options,
+                                     AnalysisPicture* picture) {
   const int n = options.size;
   if (n < 2 || n > kMaxSceneAnalysisSide) {
     return Error{"must be an integer from 2 to " + std::to_string(kMaxSceneAnalysisSide), "/size"};
@@ -55,7 +56,8 @@ Result<nlohmann::json> analyze_scene(const Scene& scene, const Program& program,
     }
   }
   const ElevationGrid grid{n, n, spec.step, elevation, options.sea_level, {}, water};
-  Result<Geomorphometry> figures = analyze(grid, options.analysis);
+  Result<Geomorphometry> figures = picture != nullptr ? analyze(grid, options.analysis, *picture)
+                                                      : analyze(grid, options.analysis);
   if (!figures) return figures.error();
   nlohmann::json out = to_json(*figures);
   out["input"] = {

@@ -57,12 +57,21 @@ TEST(PlanetAnalysis, LandDrainsWithoutPitsOrClosedDepressions) {
 TEST(PlanetAnalysis, SeaIsWaterNotLand) {
   // A square across the west coast of the continent on the antimeridian, 9.8 km apart: some
   // sea, some land.
-  const auto figures = analyze_planet(default_planet(), around(5.0, -175.0, 64, 3));
+  terrain::AnalysisPicture picture;
+  const auto figures = analyze_planet(default_planet(), around(5.0, -175.0, 64, 3), &picture);
   ASSERT_TRUE(figures) << figures.error().message;
   const auto sea = (*figures)["input"]["sea_cells"].get<std::int64_t>();
   EXPECT_GT(sea, 0);
   EXPECT_LT(sea, 64 * 64);
   EXPECT_EQ((*figures)["land_cells"].get<std::int64_t>() + sea, 64 * 64);
+  // The picture paints the sea cells, and only them, the sea's colour.
+  ASSERT_EQ(picture.width, 64);
+  ASSERT_EQ(picture.rgb.size(), 64u * 64u * 3u);
+  std::int64_t sea_pixels = 0;
+  for (std::size_t k = 0; k < picture.rgb.size(); k += 3) {
+    sea_pixels += picture.rgb[k] == 20 && picture.rgb[k + 1] == 40 && picture.rgb[k + 2] == 110;
+  }
+  EXPECT_EQ(sea_pixels, sea);
 }
 
 TEST(PlanetAnalysis, IsReproducible) {

@@ -42,6 +42,8 @@ TEST_F(HttpAnalysis, ABuiltInSceneHasItsGeomorphometry) {
   EXPECT_GT(body["land_cells"].get<std::int64_t>(), 0);
   EXPECT_TRUE(body["pits"].contains("share"));
   EXPECT_TRUE(body.contains("flint") && body.contains("strahler"));
+  ASSERT_TRUE(body["slope_area"].is_array() && !body["slope_area"].empty());
+  EXPECT_GT(body["slope_area"][0]["cells"].get<std::int64_t>(), 0);
   std::string craters_hash;
   const json list = body_json(get("/api/v1/scenes"));
   for (const json& s : list["scenes"]) {

@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -15,10 +16,12 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "terrain/drainage.hpp"
 #include "terrain/geomorphometry.hpp"
+#include "terrain/image_io.hpp"
 
 namespace terrain {
 namespace {
@@ -159,15 +162,24 @@ TEST(Geomorphometry, SeaAndNoDataAreNotLandAndActAsOutlets) {
 // draining straight into it, so valley cell j (rows 1..H−2; rows 0 and H−1 are the edge) drains
 // A_j = (W − 2)(H − 1 − j) cells. Its bed descends by S_j = k_s · A_j^−θ per cell length: a
 // stream-power surface in equilibrium (S = (U/K)^(1/n) A^(−m/n)).
+struct StreamPowerValley {
+  static constexpr int w = 41, h = 301, valley = 20;
+  static constexpr double cell = 30.0, theta = 0.45, k_s = 20.0;
+  static double area(int j) { return (w - 2) * (h - 1 - std::min(j, h - 2)) * cell * cell; }
+  std::vector<float> z = [] {
+    std::vector<double> bed(h, 0.0);
+    for (int j = 1; j < h; ++j) bed[j] = bed[j - 1] + cell * k_s * std::pow(area(j), -theta);
+    return make_grid(w, h, [&](int i, int j) { return bed[j] + cell * std::abs(i - valley); });
+  }();
+  ElevationGrid grid() const { return {w, h, cell, z}; }
+};
+
 TEST(Geomorphometry, ASyntheticStreamPowerSurfaceFollowsFlintsLaw) {
-  const int w = 41, h = 301, valley = 20;
-  const double cell = 30.0, theta = 0.45, k_s = 20.0;
-  auto area = [&](int j) { return (w - 2) * (h - 1 - std::min(j, h - 2)) * cell * cell; };
-  std::vector<double> bed(h, 0.0);
-  for (int j = 1; j < h; ++j) bed[j] = bed[j - 1] + cell * k_s * std::pow(area(j), -theta);
-  const std::vector<float> z =
-      make_grid(w, h, [&](int i, int j) { return bed[j] + cell * std::abs(i - valley); });
-  const ElevationGrid grid{w, h, cell, z};
+  const StreamPowerValley surface;
+  const auto [w, h, valley] = std::tuple{surface.w, surface.h, surface.valley};
+  const auto [cell, theta, k_s] = std::tuple{surface.cell, surface.theta, surface.k_s};
+  const auto area = StreamPowerValley::area;
+  const ElevationGrid grid = surface.grid();
 
   const Drainage d = route_or_die(grid);
   for (int j = 1; j + 1 < h; ++j) {
@@ -189,6 +201,100 @@ TEST(Geomorphometry, ASyntheticStreamPowerSurfaceFollowsFlintsLaw) {
   EXPECT_FALSE(g.bifurcation_ratio.has_value());
   EXPECT_NEAR(g.channel_length, (h - 4) * cell, 1e-9);
   EXPECT_NEAR(g.drainage_density, (h - 4) * cell / (w * h * cell * cell) * 1e3, 1e-12);
+}
+
+// The slope–area profile of the same valley: the bins its channel cells fill follow
+// S = k_s·A^−θ (each bin's median within the spread of the curve over the bin), slopes fall
+// bin by bin, and every cell with a receiver is in exactly one bin.
+TEST(Geomorphometry, TheSlopeAreaProfileOfAStreamPowerValleyFallsAsFlintsLawSays) {
+  const StreamPowerValley surface;
+  const auto [w, h, theta, k_s] = std::tuple{surface.w, surface.h, surface.theta, surface.k_s};
+  AnalysisOptions options;
+  options.channel_area = StreamPowerValley::area(h - 4);
+  const Geomorphometry g = analyze_or_die(surface.grid(), options);
+
+  ASSERT_FALSE(g.slope_area.empty());
+  std::int64_t cells = 0, channel_cells = 0;
+  for (std::size_t b = 0; b < g.slope_area.size(); ++b) {
+    const SlopeAreaBin& bin = g.slope_area[b];
+    cells += bin.cells;
+    channel_cells += bin.channel_cells;
+    EXPECT_NEAR(bin.area_to / bin.area_from, std::pow(10.0, 0.25), 1e-9);
+    if (b > 0) {
+      EXPECT_GT(bin.area_from, g.slope_area[b - 1].area_from);
+    }
+    EXPECT_LE(bin.slope_p10, bin.slope_median);
+    EXPECT_LE(bin.slope_median, bin.slope_p90);
+  }
+  EXPECT_EQ(cells, (w - 2) * (h - 2));  // every cell but the outlets on the grid's edge
+  EXPECT_EQ(channel_cells, g.flint->cells);
+  // The bins of valley cells alone (areas beyond the hillslopes', which drain at most a row).
+  int valley_bins = 0;
+  double previous = std::numeric_limits<double>::infinity();
+  for (const SlopeAreaBin& bin : g.slope_area) {
+    if (bin.area_from < options.channel_area) continue;
+    ++valley_bins;
+    EXPECT_EQ(bin.channel_cells, bin.cells);
+    EXPECT_LE(bin.slope_median, k_s * std::pow(bin.area_from, -theta) * 1.01);
+    EXPECT_GE(bin.slope_median, k_s * std::pow(bin.area_to, -theta) * 0.99);
+    EXPECT_LT(bin.slope_median, previous);
+    previous = bin.slope_median;
+  }
+  EXPECT_GE(valley_bins, 5);
+}
+
+// On a plane every cell has the same slope, whatever it drains: a flat profile (what the
+// planets' land between rivers measured at zoom 11, docs/analysis.md).
+TEST(Geomorphometry, AnInclinedPlaneHasTheSameSlopeInEveryBin) {
+  const int w = 60, h = 40;
+  const std::vector<float> z = make_grid(w, h, [](int, int j) { return 2.0 * j; });
+  const Geomorphometry g = analyze_or_die({w, h, 10.0, z});
+  ASSERT_GE(g.slope_area.size(), 3u);
+  for (const SlopeAreaBin& bin : g.slope_area) {
+    EXPECT_DOUBLE_EQ(bin.slope_p10, 0.2);
+    EXPECT_DOUBLE_EQ(bin.slope_p90, 0.2);
+  }
+}
+
+// The picture: a plane falling west with a one-cell pit, a river cell, a lake cell and a sea
+// column on its west edge; channels are the cells draining at least five cells' area.
+TEST(Geomorphometry, TheDrainagePictureShowsPitsChannelsWaterAndSeaNorthUp) {
+  constexpr int w = 20, h = 12;
+  std::vector<float> z = make_grid(w, h, [](int i, int j) { return 0.1 * i + 0.001 * j; });
+  const auto at = [](int i, int j) { return static_cast<std::size_t>(j * w + i); };
+  z[at(12, 6)] -= 5.0f;  // the pit
+  std::vector<std::uint8_t> sea(z.size(), 0), wet(z.size(), 0);
+  for (int j = 0; j < h; ++j) sea[at(0, j)] = 1;
+  wet[at(15, 2)] = kFlowingWater;
+  wet[at(15, 9)] = kStandingWater;
+  const ElevationGrid grid{w, h, 1.0, z, std::nullopt, sea, wet};
+  AnalysisOptions options;
+  options.channel_area = 5.0;
+  AnalysisPicture picture;
+  const Result<Geomorphometry> g = analyze(grid, options, picture);
+  ASSERT_TRUE(g.ok());
+  EXPECT_EQ(g->pits, 1);
+  ASSERT_EQ(picture.width, w);
+  ASSERT_EQ(picture.height, h);
+  ASSERT_EQ(picture.rgb.size(), static_cast<std::size_t>(w * h * 3));
+  // Grid row j is picture row h − 1 − j.
+  const auto pixel = [&](int i, int j) {
+    const std::size_t k =
+        (static_cast<std::size_t>(h - 1 - j) * w + static_cast<std::size_t>(i)) * 3;
+    return std::array<int, 3>{picture.rgb[k], picture.rgb[k + 1], picture.rgb[k + 2]};
+  };
+  EXPECT_EQ(pixel(12, 6), (std::array<int, 3>{230, 20, 20}));
+  EXPECT_EQ(pixel(0, 0), (std::array<int, 3>{20, 40, 110}));
+  EXPECT_EQ(pixel(15, 2), (std::array<int, 3>{0, 200, 255}));
+  EXPECT_EQ(pixel(15, 9), (std::array<int, 3>{60, 110, 200}));
+  // West of column 16 every interior row has drained five cells: channels, blue.
+  const std::array<int, 3> channel = pixel(3, 4), hillslope = pixel(18, 4);
+  EXPECT_GT(channel[2], channel[0]);
+  EXPECT_GT(channel[2], channel[1]);
+  EXPECT_EQ(hillslope[0], hillslope[1]);
+  EXPECT_EQ(hillslope[1], hillslope[2]);
+  // The same picture as drawing the figures of a routing made apart.
+  EXPECT_EQ(draw_drainage(grid, route_or_die(grid), *g).rgb, picture.rgb);
 }
 
 // The same valley: its one stream leaves by the grid's edge, which cuts its drop, so no
@@ -425,6 +531,19 @@ TEST(Geomorphometry, TheCliAnalyzesAnExampleScene) {
   expect_sane_figures(j, 128);
   EXPECT_EQ(j["input"]["kind"], "scene");
   EXPECT_EQ(j["input"]["water_cells"], 0);
+  ASSERT_FALSE(j["slope_area"].empty());
+  // --picture writes the drainage picture: a PNG of the grid's size.
+  const fs::path png =
+      fs::temp_directory_path() / ("terrain-analyze-" + std::to_string(::getpid()) + ".png");
+  ASSERT_EQ(run_cli("analyze " + (kScenes / "hills-river.json").string() + " --size 96 --picture " +
+                    png.string())
+                .first,
+            0);
+  const Result<Raster> picture = read_heightfield(png.string());
+  fs::remove(png);
+  ASSERT_TRUE(picture.ok());
+  EXPECT_EQ(picture->width, 96);
+  EXPECT_EQ(picture->height, 96);
   // No --channel-area: the drop analysis chose one of its candidates, or fell back to 1%.
   const nlohmann::json& channels = j["channels"];
   ASSERT_EQ(channels["drop_analysis"].size(), 16u);
@@ -496,6 +615,11 @@ TEST(Geomorphometry, FlintsLawLeavesStandingWaterOut) {
   ASSERT_TRUE(open.flint && lake.flint);
   EXPECT_EQ(open.flint->cells - lake.flint->cells, 11);
   EXPECT_EQ(open.channel_cells, lake.channel_cells) << "the lake's cells still carry the flow";
+  // And out of the slope–area profile: the same eleven cells fewer.
+  std::int64_t open_cells = 0, lake_cells = 0;
+  for (const SlopeAreaBin& bin : open.slope_area) open_cells += bin.cells;
+  for (const SlopeAreaBin& bin : lake.slope_area) lake_cells += bin.cells;
+  EXPECT_EQ(open_cells - lake_cells, 11);
   // Flowing water (a river) stays in the fit.
   for (int i = 10; i <= 20; ++i) wet[static_cast<std::size_t>(4 * w + i)] = kFlowingWater;
   EXPECT_EQ(analyze({w, h, 1.0, z, std::nullopt, {}, wet}, options)->flint->cells,

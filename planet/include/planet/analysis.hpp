@@ -32,9 +32,10 @@ struct PlanetAnalysisOptions {
 /// apart, and analyses them: sea samples are water (outlets), river samples wet land. The JSON
 /// is terrain::to_json's figures plus "input" (the planet id, centre, cell size, level, sea and
 /// river cells). Errors name the field: /latitude, /longitude, /cell_size, /zoom, /size, and
-/// terrain::analyze's.
+/// terrain::analyze's. With `picture`, also draws the square (terrain::draw_drainage).
 terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Planet>& planet,
-                                               const PlanetAnalysisOptions& options);
+                                               const PlanetAnalysisOptions& options,
+                                               terrain::AnalysisPicture* picture = nullptr);
 
 /// The most samples planet_hypsometry takes.
 inline constexpr int kMaxHypsometrySamples = 1000000;

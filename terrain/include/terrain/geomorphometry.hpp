@@ -34,6 +34,18 @@ struct FlintFit {
   std::int64_t cells = 0;  ///< channel cells in the fit
 };
 
+/// One bin of the slope–area profile: the land cells whose drainage area lies in
+/// [area_from, area_to), a quarter of a decade, with their slope S on the raw surface (the same
+/// cells and S as Flint's fit, hillslopes included: S > 0, standing water left out).
+struct SlopeAreaBin {
+  double area_from = 0.0;  ///< m², 10^(k/4)
+  double area_to = 0.0;    ///< m², 10^((k+1)/4)
+  std::int64_t cells = 0;
+  std::int64_t channel_cells = 0;  ///< of them, those draining at least the channel threshold
+  /// Nearest-rank percentiles of S (metres per metre): the value at rank ⌈q·cells⌉.
+  double slope_p10 = 0.0, slope_median = 0.0, slope_p90 = 0.0;
+};
+
 /// One row of the drop analysis (Tarboton, Bras & Rodríguez-Iturbe 1991): the network that a
 /// candidate channel threshold extracts, and whether its streams keep Broscoe's constant drop.
 struct DropTest {
@@ -75,6 +87,9 @@ struct Geomorphometry {
   std::int64_t channel_cells = 0;
   double max_drainage_area = 0.0;  ///< m², the largest over land cells
   std::optional<FlintFit> flint;   ///< none with fewer than 3 cells or no spread in area
+  /// Slope against drainage area in quarter decades, smallest areas first (empty bins left
+  /// out): the curve Flint's law fits a line to, with the hillslopes below the channel head.
+  std::vector<SlopeAreaBin> slope_area;
   int max_strahler_order = 0;
   std::vector<std::int64_t> streams_per_order;  ///< [ω − 1] = number of streams of order ω
   /// Horton's R_b = 10^(−slope) of the least-squares line of log10 N_ω against ω; none below
@@ -88,9 +103,30 @@ struct Geomorphometry {
   double mean_elevation = 0.0;
 };
 
+/// The version of to_json's layout: 2 since the slope–area profile. Caches of analyses key on it.
+inline constexpr int kAnalysisFormat = 2;
+
 /// Routes the grid (route_drainage) and computes every figure. Errors name the field, as
 /// route_drainage's, plus /channel_area and /depression_epsilon (finite and ≥ 0).
 Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options = {});
+
+/// A picture of an analysed grid, RGB8, width × height, the grid's last row (north) at the
+/// top: dry land as a hillshade lit from the north-west; channel cells (draining at least the
+/// threshold) in blue, darker as they drain more; pits red; flowing water cyan, standing water
+/// blue, sea and no data dark blue.
+struct AnalysisPicture {
+  int width = 0;
+  int height = 0;
+  std::vector<std::uint8_t> rgb;
+};
+
+/// analyze(), and the picture of its routing (draw_drainage) when it succeeds.
+Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options,
+                               AnalysisPicture& picture);
+
+/// The picture of `figures`, analysed from `grid` routed as `drainage`.
+AnalysisPicture draw_drainage(const ElevationGrid& grid, const Drainage& drainage,
+                              const Geomorphometry& figures);
 
 /// The same from a routing already made (`grid` must be the one `drainage` was routed from).
 Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& drainage,

@@ -28,7 +28,9 @@ struct SceneAnalysisOptions {
 
 /// Samples `program` (the scene's compiled terrain) and the scene's water layer, then analyses.
 /// Errors name the field: /size, /area, /sea_level, and analyze()'s.
+/// With `picture`, also draws the grid (draw_drainage).
 Result<nlohmann::json> analyze_scene(const Scene& scene, const Program& program,
-                                     const SceneAnalysisOptions& options = {});
+                                     const SceneAnalysisOptions& options = {},
+                                     AnalysisPicture* picture = nullptr);
 
 }  // namespace terrain
