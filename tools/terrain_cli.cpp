@@ -482,7 +482,7 @@ int cmd_analyze(const Args& args) {
   }
   ElevationGrid grid{width, height, cell, elevation, sea_level, water};
   Result<Geomorphometry> figures =
-      picture_path.empty() ? analyze(grid, options) : analyze(grid, options, picture);
+      analyze(grid, options, picture_path.empty() ? nullptr : &picture);
   if (!figures) {
     std::cerr << "terrain analyze: " << figures.error().pointer << ": " << figures.error().message
               << "\n";

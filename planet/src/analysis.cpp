@@ -73,8 +73,7 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
   }
   const terrain::ElevationGrid grid{n, n, cell, elevation, std::nullopt, sea, wet};
   terrain::Result<terrain::Geomorphometry> figures =
-      picture != nullptr ? terrain::analyze(grid, options.analysis, *picture)
-                         : terrain::analyze(grid, options.analysis);
+      terrain::analyze(grid, options.analysis, picture);
   if (!figures) return figures.error();
   nlohmann::json out = terrain::to_json(*figures);
   out["input"] = {{"kind", "planet"},

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 
 namespace terrain {
@@ -66,47 +67,38 @@ double nearest_rank(const std::vector<double>& sorted, double q) {
   return sorted[std::clamp<std::size_t>(rank, 1, sorted.size()) - 1];
 }
 
-/// The slope–area profile (Geomorphometry::slope_area) over every land cell with a receiver, a
-/// positive slope on the raw surface and no standing water over it.
+/// S = (z − z_receiver) / distance on the raw surface of a cell that Flint's fit and the
+/// slope–area profile count: one with a receiver, not under standing water (a lake floor's slope
+/// is not a river's), and S finite and > 0 (not in a filled depression or on a flat).
+std::optional<double> fit_slope(const ElevationGrid& grid, const Drainage& d, std::size_t c) {
+  const std::int32_t r = d.receiver[c];
+  if (r < 0 || (!grid.wet.empty() && grid.wet[c] == kStandingWater)) return std::nullopt;
+  const double slope = (static_cast<double>(grid.elevation[c]) -
+                        static_cast<double>(grid.elevation[static_cast<std::size_t>(r)])) /
+                       d8_distance(d, static_cast<std::int32_t>(c), r);
+  if (!(std::isfinite(slope) && slope > 0.0)) return std::nullopt;
+  return slope;
+}
+
+/// The slope–area profile (Geomorphometry::slope_area) over every land cell fit_slope counts.
 std::vector<SlopeAreaBin> slope_area_profile(const ElevationGrid& grid, const Drainage& d,
                                              const std::vector<std::uint8_t>& channel) {
-  // Bin k holds areas in [10^(k/4), 10^((k+1)/4)); a cell drains at least its own area, and
-  // the grid's largest area bounds k, so a few dozen bins at most.
-  std::vector<std::vector<double>> slopes;
-  std::vector<std::int64_t> channels;
-  int first = std::numeric_limits<int>::max();
-  std::vector<std::pair<int, double>> binned;  // (k, S) per cell, in linear index order
-  std::vector<std::uint8_t> in_channel;
+  // Bin k holds areas in [10^(k/4), 10^((k+1)/4)): its cells' slopes and channel cells.
+  std::map<int, std::pair<std::vector<double>, std::int64_t>> by_bin;
   for (std::size_t c = 0; c < d.cells(); ++c) {
-    const std::int32_t r = d.receiver[c];
-    if (d.land[c] == 0 || r < 0) continue;
-    if (!grid.wet.empty() && grid.wet[c] == kStandingWater) continue;
-    const double slope = (static_cast<double>(grid.elevation[c]) -
-                          static_cast<double>(grid.elevation[static_cast<std::size_t>(r)])) /
-                         d8_distance(d, static_cast<std::int32_t>(c), r);
-    if (!(std::isfinite(slope) && slope > 0.0)) continue;
-    const int k = static_cast<int>(std::floor(4.0 * std::log10(d.area[c])));
-    first = std::min(first, k);
-    binned.emplace_back(k, slope);
-    in_channel.push_back(channel[c]);
-  }
-  for (std::size_t i = 0; i < binned.size(); ++i) {
-    const auto at = static_cast<std::size_t>(binned[i].first - first);
-    if (at >= slopes.size()) {
-      slopes.resize(at + 1);
-      channels.resize(at + 1, 0);
-    }
-    slopes[at].push_back(binned[i].second);
-    channels[at] += in_channel[i];
+    if (d.land[c] == 0) continue;
+    const std::optional<double> slope = fit_slope(grid, d, c);
+    if (!slope) continue;
+    auto& [slopes, channels] = by_bin[static_cast<int>(std::floor(4.0 * std::log10(d.area[c])))];
+    slopes.push_back(*slope);
+    channels += channel[c];
   }
   std::vector<SlopeAreaBin> bins;
-  for (std::size_t at = 0; at < slopes.size(); ++at) {
-    std::vector<double>& v = slopes[at];
-    if (v.empty()) continue;
+  for (auto& [k, bin] : by_bin) {
+    std::vector<double>& v = bin.first;
     std::sort(v.begin(), v.end());
-    const int k = first + static_cast<int>(at);
     bins.push_back({std::pow(10.0, k / 4.0), std::pow(10.0, (k + 1) / 4.0),
-                    static_cast<std::int64_t>(v.size()), channels[at], nearest_rank(v, 0.1),
+                    static_cast<std::int64_t>(v.size()), bin.second, nearest_rank(v, 0.1),
                     nearest_rank(v, 0.5), nearest_rank(v, 0.9)});
   }
   return bins;
@@ -282,11 +274,14 @@ std::optional<double> constant_drop_threshold(std::span<const DropTest> table) {
   return chosen;
 }
 
-Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options) {
+Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options,
+                               AnalysisPicture* picture) {
   if (Status valid = validate(options); !valid) return valid.error();
   Result<Drainage> drainage = route_drainage(grid);
   if (!drainage) return drainage.error();
-  return analyze(grid, *drainage, options);
+  Result<Geomorphometry> figures = analyze(grid, *drainage, options);
+  if (figures && picture != nullptr) *picture = draw_drainage(grid, *drainage, *figures);
+  return figures;
 }
 
 Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
@@ -362,16 +357,10 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
     ++g.channel_cells;
     const std::int32_t r = d.receiver[c];
     if (r < 0) continue;
-    const double distance = d8_distance(d, static_cast<std::int32_t>(c), r);
-    g.channel_length += distance;
-    const double slope =
-        (static_cast<double>(raw[c]) - static_cast<double>(raw[static_cast<std::size_t>(r)])) /
-        distance;
-    // Under standing water the slope is a lake floor's, not a river's.
-    const bool standing = !grid.wet.empty() && grid.wet[c] == kStandingWater;
-    if (std::isfinite(slope) && slope > 0.0 && !standing) {
+    g.channel_length += d8_distance(d, static_cast<std::int32_t>(c), r);
+    if (const std::optional<double> slope = fit_slope(grid, d, c)) {
       log_area.push_back(std::log10(d.area[c]));
-      log_slope.push_back(std::log10(slope));
+      log_slope.push_back(std::log10(*slope));
     }
   }
   if (g.land_cells > 0) {
@@ -389,16 +378,6 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
   g.streams_per_order = network.streams_per_order;
   g.bifurcation_ratio = bifurcation_ratio(network.streams_per_order);
   return g;
-}
-
-Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options,
-                               AnalysisPicture& picture) {
-  if (Status valid = validate(options); !valid) return valid.error();
-  Result<Drainage> drainage = route_drainage(grid);
-  if (!drainage) return drainage.error();
-  Result<Geomorphometry> figures = analyze(grid, *drainage, options);
-  if (figures) picture = draw_drainage(grid, *drainage, *figures);
-  return figures;
 }
 
 AnalysisPicture draw_drainage(const ElevationGrid& grid, const Drainage& d,

@@ -56,8 +56,7 @@ Result<nlohmann::json> analyze_scene(const Scene& scene, const Program& program,
     }
   }
   const ElevationGrid grid{n, n, spec.step, elevation, options.sea_level, {}, water};
-  Result<Geomorphometry> figures = picture != nullptr ? analyze(grid, options.analysis, *picture)
-                                                      : analyze(grid, options.analysis);
+  Result<Geomorphometry> figures = analyze(grid, options.analysis, picture);
   if (!figures) return figures.error();
   nlohmann::json out = to_json(*figures);
   out["input"] = {

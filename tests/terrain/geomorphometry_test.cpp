@@ -271,7 +271,7 @@ TEST(Geomorphometry, TheDrainagePictureShowsPitsChannelsWaterAndSeaNorthUp) {
   AnalysisOptions options;
   options.channel_area = 5.0;
   AnalysisPicture picture;
-  const Result<Geomorphometry> g = analyze(grid, options, picture);
+  const Result<Geomorphometry> g = analyze(grid, options, &picture);
   ASSERT_TRUE(g.ok());
   EXPECT_EQ(g->pits, 1);
   ASSERT_EQ(picture.width, w);

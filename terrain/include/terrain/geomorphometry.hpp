@@ -106,10 +106,6 @@ struct Geomorphometry {
 /// The version of to_json's layout: 2 since the slope–area profile. Caches of analyses key on it.
 inline constexpr int kAnalysisFormat = 2;
 
-/// Routes the grid (route_drainage) and computes every figure. Errors name the field, as
-/// route_drainage's, plus /channel_area and /depression_epsilon (finite and ≥ 0).
-Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options = {});
-
 /// A picture of an analysed grid, RGB8, width × height, the grid's last row (north) at the
 /// top: dry land as a hillshade lit from the north-west; channel cells (draining at least the
 /// threshold) in blue, darker as they drain more; pits red; flowing water cyan, standing water
@@ -120,9 +116,11 @@ struct AnalysisPicture {
   std::vector<std::uint8_t> rgb;
 };
 
-/// analyze(), and the picture of its routing (draw_drainage) when it succeeds.
-Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options,
-                               AnalysisPicture& picture);
+/// Routes the grid (route_drainage) and computes every figure; with `picture`, also draws the
+/// routing (draw_drainage) when it succeeds. Errors name the field, as route_drainage's, plus
+/// /channel_area and /depression_epsilon (finite and ≥ 0).
+Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options = {},
+                               AnalysisPicture* picture = nullptr);
 
 /// The picture of `figures`, analysed from `grid` routed as `drainage`.
 AnalysisPicture draw_drainage(const ElevationGrid& grid, const Drainage& drainage,
