@@ -10,7 +10,78 @@ Vec3d scaled_slope(const Vertex& v, double scale) {
   return {slope[0] * scale, slope[1] * scale, slope[2] * scale};
 }
 
+// Valley floors along rivers and coasts, at every level. In a land triangle with wet corners
+// (river or coast) and dry ones, the ground rises only kFloorRise of the way from the wet
+// corners' level to the smooth surface over the first kFloorWidth of the way (in the dryness D
+// below, 0 at wet corners and 1 at dry ones), then blends into the smooth surface with weight
+// smoothstep((D − kFloorWidth) / (1 − kFloorWidth)). D is a cubic that is C1 across every edge;
+// until generation 15 it was the dry corners' total barycentric weight, whose slope jumps across
+// every spoke from a wet corner, and the blend creased there (issue 20 item 4). A piecewise-linear
+// V whose sides are steeper than the river it holds leaves the samples beside a channel narrower
+// than a sample lower than all eight neighbours (pits at every zoom: docs/analysis.md); a floor
+// about a sample wide drains them into it. The smooth surface here is the Clough–Tocher cubic of
+// the corners with the wet ones level (no slope): along the dry corners' edge it is the cubic and
+// cross-edge slope of those two corners alone, which the all-dry triangle across that edge shares,
+// and the blend's weight arrives there flat, so the valley side meets the dry land with the same
+// height and slope (C1) — until generation 13 it climbed there linearly and left a crease. Along
+// every other edge both triangles see the same two corners with the same weights, so the surface
+// stays continuous.
+constexpr double kFloorWidth = 0.5;
+constexpr double kFloorRise = 0.001;
+
 }  // namespace
+
+ValleyFloor::ValleyFloor(const std::array<const Vertex*, 3>& corner, double radius) {
+  bool any_wet = false, any_dry = false;
+  for (std::size_t k = 0; k < 3; ++k) {
+    ground_[k] = corner[k]->ground;
+    wet_[k] = wet(*corner[k]);
+    (wet_[k] ? any_wet : any_dry) = true;
+  }
+  mixed_ = any_wet && any_dry;
+  if (!mixed_) return;
+  // Two copies of the corners, level (no slope) where it matters. `marks` carry the dryness: the
+  // Clough–Tocher cubic of 0 at the wet corners and 1 at the dry ones, level at every corner.
+  // Along an edge it depends on that edge's two ends only, so two triangles sharing a spoke from
+  // a wet corner see the same dryness with the same slope across it. `side` carries the smooth
+  // surface with the wet corners level: what the valley side climbs to.
+  std::array<Vertex, 3> mark{}, level{};
+  std::array<const Vertex*, 3> marks{}, side = corner;
+  for (std::size_t k = 0; k < 3; ++k) {
+    mark[k] = *corner[k];
+    mark[k].ground = wet_[k] ? 0.0 : 1.0;
+    ground_slope(mark[k]) = {0.0f, 0.0f, 0.0f};
+    marks[k] = &mark[k];
+    if (!wet_[k]) continue;
+    level[k] = *corner[k];
+    ground_slope(level[k]) = {0.0f, 0.0f, 0.0f};
+    side[k] = &level[k];
+  }
+  dryness_.emplace(marks, radius);
+  side_.emplace(side, radius);
+}
+
+double ValleyFloor::operator()(const std::array<double, 3>& w) const {
+  double wet_weight = 0.0, wet_sum = 0.0, dry_weight = 0.0, dry_sum = 0.0;
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (wet_[k]) {
+      wet_weight += w[k];
+      wet_sum += w[k] * ground_[k];
+    } else {
+      dry_weight += w[k];
+      dry_sum += w[k] * ground_[k];
+    }
+  }
+  if (!mixed_ || !(wet_weight > 0.0) || !(dry_weight > 0.0)) return wet_sum + dry_sum;
+  const double wet_level = wet_sum / wet_weight;
+  const double share = (*dryness_)(w);
+  const double smooth = (*side_)(w);
+  const double floor = wet_level + kFloorRise * share * (smooth - wet_level);
+  if (share <= kFloorWidth) return floor;
+  // The valley side: from the floor to the smooth surface, which it reaches with the surface's
+  // slope at the dry corners (C1 with the all-dry triangle across their edge).
+  return floor + smoothstep((share - kFloorWidth) / (1.0 - kFloorWidth)) * (smooth - floor);
+}
 
 CloughTocher::CloughTocher(const std::array<const Vertex*, 3>& corner, double radius) {
   // Per corner i, with j = i + 1 and k = i + 2 (mod 3): the edge to the next corner, x_j − x_i,

@@ -186,6 +186,8 @@ class Sampler {
   /// The cubic of dry triangle t (its corners `corner`): the last leaf's is kept, for the
   /// samples that follow in it.
   const CloughTocher& surface_of(std::int32_t t, const std::array<const Vertex*, 3>& corner);
+  /// The same for a land triangle with wet corners: its valley floor.
+  const ValleyFloor& floor_of(std::int32_t t, const std::array<const Vertex*, 3>& corner);
   /// Triangle t with its edges' planes.
   DescentStart start_at(std::int32_t t) const;
   /// The triangle at `level` holding p: the leaf locate(p, level) finds, bit for bit, descending
@@ -208,6 +210,9 @@ class Sampler {
   std::optional<CloughTocher> surface_;  ///< of triangle surface_tri_, this generation's
   std::int32_t surface_tri_ = -1;
   std::uint64_t surface_generation_ = 0;
+  std::optional<ValleyFloor> floor_;  ///< of triangle floor_tri_, this generation's
+  std::int32_t floor_tri_ = -1;
+  std::uint64_t floor_generation_ = 0;
   /// Steps across leaf edges before a point is looked for down the path instead.
   static constexpr int kWalkSteps = 4;
 };

@@ -8,10 +8,12 @@
 //
 // Splits predict a new dry vertex from this surface (refine.cpp), so refinement adds detail to a
 // smooth surface rather than to the facets of the level above: without it a level's triangles
-// survive every later level as flat facets with creases along their edges.
+// survive every later level as flat facets with creases along their edges. Land triangles with
+// wet corners blend the same cubic into a valley floor beside the water (ValleyFloor).
 #pragma once
 
 #include <array>
+#include <optional>
 
 #include "planet/mesh.hpp"
 
@@ -51,6 +53,23 @@ inline double clough_tocher(const std::array<const Vertex*, 3>& corner,
                             const std::array<double, 3>& w, double radius) {
   return CloughTocher(corner, radius)(w);
 }
+
+/// The ground of a land triangle with wet corners (river, coast or lake) and dry ones: a valley
+/// floor beside the water that blends into the smooth surface (planet.md "Detail, surface type
+/// and water"). Its two cubics depend on the corners only, so it is made once per triangle and
+/// evaluated at any number of its points (a sampler keeps its last leaf's).
+class ValleyFloor {
+ public:
+  ValleyFloor(const std::array<const Vertex*, 3>& corner, double radius);
+  /// The height at gnomonic barycentric coordinates w.
+  double operator()(const std::array<double, 3>& w) const;
+
+ private:
+  std::array<double, 3> ground_{};
+  std::array<bool, 3> wet_{};
+  bool mixed_ = false;  ///< wet and dry corners both: else the triangle is filled linearly
+  std::optional<CloughTocher> dryness_, side_;
+};
 
 /// The slope (metres per metre, tangent at m) of a new vertex from its four neighbours `ring`,
 /// counter-clockwise around it: the area-weighted mean of the gradients of the four triangles
