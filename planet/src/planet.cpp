@@ -193,23 +193,20 @@ PointSample Sampler::at(const Vec3d& p, int level, double octaves, const Descent
   return evaluate(descend(p, level, start), p, level, octaves);
 }
 
-const CloughTocher& Sampler::surface_of(std::int32_t t,
-                                        const std::array<const Vertex*, 3>& corner) {
-  if (surface_tri_ != t || surface_generation_ != generation_) {  // t ≥ 0: emplaced below
-    surface_.emplace(corner, planet_->definition().radius);
-    surface_tri_ = t;
-    surface_generation_ = generation_;
+double Sampler::land_ground(std::int32_t t, const std::array<const Vertex*, 3>& corner,
+                            const std::array<double, 3>& w) {
+  if (leaf_ground_tri_ != t || leaf_ground_generation_ != generation_) {  // t ≥ 0
+    const double radius = planet_->definition().radius;
+    if (all_dry(corner)) {
+      leaf_cubic_.emplace(corner, radius);
+      leaf_floor_.reset();
+    } else {
+      leaf_floor_.emplace(corner, radius);
+    }
+    leaf_ground_tri_ = t;
+    leaf_ground_generation_ = generation_;
   }
-  return *surface_;
-}
-
-const ValleyFloor& Sampler::floor_of(std::int32_t t, const std::array<const Vertex*, 3>& corner) {
-  if (floor_tri_ != t || floor_generation_ != generation_) {  // t ≥ 0: emplaced below
-    floor_.emplace(corner, planet_->definition().radius);
-    floor_tri_ = t;
-    floor_generation_ = generation_;
-  }
-  return *floor_;
+  return leaf_floor_ ? (*leaf_floor_)(w) : (*leaf_cubic_)(w);
 }
 
 PointSample Sampler::at_from_root(const Vec3d& p, int level, double octaves) {
@@ -384,10 +381,8 @@ Sampler::Undetailed Sampler::undetailed(std::int32_t t, const Vec3d& p, int leve
   }
   if (tri.face != FaceType::land) {  // under the sea or a lake
     out.ground = w[0] * x.ground + w[1] * y.ground + w[2] * z.ground;
-  } else if (all_dry({&x, &y, &z})) {
-    out.ground = surface_of(t, {&x, &y, &z})(w);
   } else {
-    out.ground = floor_of(t, {&x, &y, &z})(w);
+    out.ground = land_ground(t, {&x, &y, &z}, w);
   }
   // River corners count as river features too: a channel around a vertex reaches into the
   // triangles that touch the river only there.

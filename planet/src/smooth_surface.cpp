@@ -38,8 +38,7 @@ ValleyFloor::ValleyFloor(const std::array<const Vertex*, 3>& corner, double radi
     wet_[k] = wet(*corner[k]);
     (wet_[k] ? any_wet : any_dry) = true;
   }
-  mixed_ = any_wet && any_dry;
-  if (!mixed_) return;
+  if (!any_wet || !any_dry) return;
   // Two copies of the corners, level (no slope) where it matters. `marks` carry the dryness: the
   // Clough–Tocher cubic of 0 at the wet corners and 1 at the dry ones, level at every corner.
   // Along an edge it depends on that edge's two ends only, so two triangles sharing a spoke from
@@ -72,7 +71,7 @@ double ValleyFloor::operator()(const std::array<double, 3>& w) const {
       dry_sum += w[k] * ground_[k];
     }
   }
-  if (!mixed_ || !(wet_weight > 0.0) || !(dry_weight > 0.0)) return wet_sum + dry_sum;
+  if (!dryness_ || !(wet_weight > 0.0) || !(dry_weight > 0.0)) return wet_sum + dry_sum;
   const double wet_level = wet_sum / wet_weight;
   const double share = (*dryness_)(w);
   const double smooth = (*side_)(w);

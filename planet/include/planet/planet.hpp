@@ -183,11 +183,11 @@ class Sampler {
   /// The sample with `detail` added (none: no detail at all), clamped, and its water and type.
   PointSample finish(const Undetailed& sample, std::optional<double> detail) const;
   void trim_when_large();
-  /// The cubic of dry triangle t (its corners `corner`): the last leaf's is kept, for the
-  /// samples that follow in it.
-  const CloughTocher& surface_of(std::int32_t t, const std::array<const Vertex*, 3>& corner);
-  /// The same for a land triangle with wet corners: its valley floor.
-  const ValleyFloor& floor_of(std::int32_t t, const std::array<const Vertex*, 3>& corner);
+  /// The ground at w in land triangle t (its corners `corner`): the cubic where every corner is
+  /// dry, else the valley floor. The last leaf's surface is kept for the samples that follow in
+  /// it.
+  double land_ground(std::int32_t t, const std::array<const Vertex*, 3>& corner,
+                     const std::array<double, 3>& w);
   /// Triangle t with its edges' planes.
   DescentStart start_at(std::int32_t t) const;
   /// The triangle at `level` holding p: the leaf locate(p, level) finds, bit for bit, descending
@@ -207,12 +207,12 @@ class Sampler {
   std::vector<Undetailed> pending_;
   std::vector<Vec3d> detailed_;
   std::vector<double> detail_;
-  std::optional<CloughTocher> surface_;  ///< of triangle surface_tri_, this generation's
-  std::int32_t surface_tri_ = -1;
-  std::uint64_t surface_generation_ = 0;
-  std::optional<ValleyFloor> floor_;  ///< of triangle floor_tri_, this generation's
-  std::int32_t floor_tri_ = -1;
-  std::uint64_t floor_generation_ = 0;
+  /// The surface of land triangle leaf_ground_tri_, this generation's (land_ground): its valley
+  /// floor where it has one, else its cubic.
+  std::optional<CloughTocher> leaf_cubic_;
+  std::optional<ValleyFloor> leaf_floor_;
+  std::int32_t leaf_ground_tri_ = -1;
+  std::uint64_t leaf_ground_generation_ = 0;
   /// Steps across leaf edges before a point is looked for down the path instead.
   static constexpr int kWalkSteps = 4;
 };

@@ -67,7 +67,7 @@ class ValleyFloor {
  private:
   std::array<double, 3> ground_{};
   std::array<bool, 3> wet_{};
-  bool mixed_ = false;  ///< wet and dry corners both: else the triangle is filled linearly
+  /// Only with wet and dry corners both: else the triangle is filled linearly.
   std::optional<CloughTocher> dryness_, side_;
 };
 
