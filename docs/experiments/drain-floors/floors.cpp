@@ -49,6 +49,11 @@ int main(int argc, char** argv) {
   Hierarchy h = P->base_mesh().hierarchy;
   const int L = P->level_for_spacing(cell);
   std::unordered_set<std::int32_t> leaves;
+  // The knobs, read once (README.md).
+  const double clamp_mode = env("EXP_CLAMP", 0), kmin = env("EXP_KMIN", 4),
+               wcells = env("EXP_W", 1.5), sf = env("EXP_SF", 0.002), sfr = env("EXP_SFR", 0),
+               wfrac = env("EXP_WFRAC", 0), rr = env("EXP_ROUND", 0), kk = env("EXP_SMIN", 0),
+               tau_frac = env("EXP_TAU", 0);
   for (int j = 0; j < n; ++j) for (int i = 0; i < n; ++i) {
     const double lat = lat0 + (-half + j * cell) / R / deg;
     const double lon = lon0 + (-half + i * cell) / (R * cosc) / deg;
@@ -60,12 +65,12 @@ int main(int argc, char** argv) {
     else if (s.type == SurfaceType::lake) wet[c] = terrain::kStandingWater;
     const std::int32_t lt = h.locate(P->geodesy().direction(lat, lon), L);
     leaves.insert(lt);
-    if (env("EXP_CLAMP", 0) > 0 && s.type == SurfaceType::land) {
+    if (clamp_mode > 0 && s.type == SurfaceType::land) {
       const Tri& tr = h.tris[lt];
       double lo = 1e30, hi = -1e30;
       for (int k = 0; k < 3; ++k) { lo = std::min(lo, h.vertices[tr.v[k]].ground); hi = std::max(hi, h.vertices[tr.v[k]].ground); }
       elev[c] = float(std::max<double>(elev[c], lo));
-      if (env("EXP_CLAMP", 0) > 1) elev[c] = float(std::min<double>(elev[c], hi));
+      if (clamp_mode > 1) elev[c] = float(std::min<double>(elev[c], hi));
     }
   }
   for (int j = -4; j < n + 4; ++j) for (int i = -4; i < n + 4; ++i) {
@@ -74,8 +79,6 @@ int main(int argc, char** argv) {
     const double lon = lon0 + (-half + i * cell) / (R * cosc) / deg;
     leaves.insert(h.locate(P->geodesy().direction(lat, lon), L));
   }
-  const double kmin = env("EXP_KMIN", 4), wcells = env("EXP_W", 1.5), sf = env("EXP_SF", 0.002),
-               wfrac = env("EXP_WFRAC", 0);
   auto grid_of = [&](const Vec3d& p, double& x, double& y) {
     double la, lo; P->geodesy().direction_to_geographic(p, la, lo);
     double dl = lo - lon0; if (dl > 180) dl -= 360; if (dl < -180) dl += 360;
@@ -105,7 +108,7 @@ int main(int argc, char** argv) {
         if (!fresh) it->second = std::max(it->second, bl);
       }
     }
-    const int passes = env("EXP_TAU", 0) > 0 ? 2 : 1;
+    const int passes = tau_frac > 0 ? 2 : 1;
     for (int pass = 0; pass < passes; ++pass)
     for (auto& [e, bl] : edges) {
       if (bl < kmin * cell) continue;
@@ -116,6 +119,8 @@ int main(int argc, char** argv) {
       const int x0 = std::max(0, int(std::floor(std::min(ux, vx) - W))), x1 = std::min(n - 1, int(std::ceil(std::max(ux, vx) + W)));
       const int y0 = std::max(0, int(std::floor(std::min(uy, vy) - W))), y1 = std::min(n - 1, int(std::ceil(std::max(uy, vy) + W)));
       const double ex = vx - ux, ey = vy - uy, ee = ex * ex + ey * ey;
+      const double axis_slope = std::abs(u.ground - v.ground) / (std::sqrt(ee) * cell);
+      const double cross = sf + sfr * axis_slope;
       for (int y = y0; y <= y1; ++y) for (int x = x0; x <= x1; ++x) {
         const int c = y * n + x;
         if (sea[c] || wet[c]) continue;
@@ -123,19 +128,16 @@ int main(int argc, char** argv) {
         const double dx = x - (ux + t * ex), dy = y - (uy + t * ey), d = std::sqrt(dx * dx + dy * dy);
         if (d > W) continue;
         const double axis = u.ground + t * (v.ground - u.ground);
-        const double axis_slope = std::abs(u.ground - v.ground) / (std::sqrt(ee) * cell);
-        static const double rr = env("EXP_ROUND", 0), kk = env("EXP_SMIN", 0);
         const double g = d < rr ? d * d / (2 * rr) : d - rr / 2;
-        const double f = axis + (sf + env("EXP_SFR", 0) * axis_slope) * g * cell;
+        const double f = axis + cross * g * cell;
         floored[c] = 1;
-        static const double tau_frac = env("EXP_TAU", 0);
         if (tau_frac > 0 && pass == 0) {
           sminslope[c] = std::min(sminslope[c], axis_slope);
         } else if (tau_frac > 0) {
           const double tau = tau_frac * std::max(sminslope[c], 1e-5) * cell;
           softsum[c] += std::exp(-(f - elev[c]) / tau);
         } else if (kk > 0) {
-          const double k = kk * (sf + env("EXP_SFR", 0) * axis_slope) * cell;
+          const double k = kk * cross * cell;
           const double a0 = out[c];
           const double hh = std::max(k - std::abs(a0 - f), 0.0) / k;
           out[c] = float(std::min(a0, f) - hh * hh * k * 0.25);
@@ -143,9 +145,9 @@ int main(int argc, char** argv) {
       }
     }
   }
-  if (env("EXP_TAU", 0) > 0) {
+  if (tau_frac > 0) {
     for (int c = 0; c < n * n; ++c) if (!sea[c] && !wet[c] && floored[c]) {
-      const double tau = env("EXP_TAU", 0) * std::max(sminslope[c], 1e-5) * cell;
+      const double tau = tau_frac * std::max(sminslope[c], 1e-5) * cell;
       out[c] = float(elev[c] - tau * std::log(softsum[c]));
     }
   }
