@@ -27,6 +27,16 @@ const std::shared_ptr<const Planet>& default_planet() {
   return planet;
 }
 
+// The same definition with the drainage relief model (planet.md "Relief models").
+const std::shared_ptr<const Planet>& drainage_planet() {
+  static const std::shared_ptr<const Planet> planet = [] {
+    PlanetDefinition d = default_definition();
+    d.relief_model = ReliefModel::drainage;
+    return Planet::create(d);
+  }();
+  return planet;
+}
+
 void BM_PlanetBaseMesh(benchmark::State& state) {
   const PlanetDefinition d = default_definition();
   int faces = 0;
@@ -62,8 +72,8 @@ BENCHMARK(BM_PlanetRefinement)->Arg(10)->Arg(20)->Unit(benchmark::kMillisecond);
 
 // One tile of `format` over land at about 20° N, 20° E (this planet's central continent), a
 // fresh PlanetTiles each time so that no refinement is reused: the latency of a cache miss.
-void run_planet_tile(benchmark::State& state, terrain::TileFormat format) {
-  const auto& world = default_planet();
+void run_planet_tile(benchmark::State& state, terrain::TileFormat format,
+                     const std::shared_ptr<const Planet>& world = default_planet()) {
   const int z = static_cast<int>(state.range(0));
   const terrain::TileAddress a{z, static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z)),
                                static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z))};
@@ -87,8 +97,7 @@ BENCHMARK(BM_PlanetTile)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond
 // The same tile from a PlanetTiles that has made it once, every triangle it needs already split:
 // what a server thread's cached refinement saves (the product cache aside), and what a tile costs
 // beyond its splits (descent, cubic, detail noise, encoding).
-void BM_PlanetTileRefined(benchmark::State& state) {
-  const auto& world = default_planet();
+void run_planet_tile_refined(benchmark::State& state, const std::shared_ptr<const Planet>& world) {
   const int z = static_cast<int>(state.range(0));
   const terrain::TileAddress a{z, static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z)),
                                static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z))};
@@ -103,7 +112,21 @@ void BM_PlanetTileRefined(benchmark::State& state) {
     benchmark::DoNotOptimize(p->bytes.data());
   }
 }
+void BM_PlanetTileRefined(benchmark::State& state) {
+  run_planet_tile_refined(state, default_planet());
+}
 BENCHMARK(BM_PlanetTileRefined)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond);
+
+// The same two with the drainage relief model: its hung vertices and the floors drawn along
+// every drain of the tile's level.
+void BM_PlanetTileDrainage(benchmark::State& state) {
+  run_planet_tile(state, terrain::TileFormat::terrain_rgb, drainage_planet());
+}
+BENCHMARK(BM_PlanetTileDrainage)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond);
+void BM_PlanetTileDrainageRefined(benchmark::State& state) {
+  run_planet_tile_refined(state, drainage_planet());
+}
+BENCHMARK(BM_PlanetTileDrainageRefined)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond);
 
 // Issue 20 asks that a planet tile be no slower than a scene tile of the same size, so the same
 // product of every example scene runs in the same process: a 256² terrain-RGB tile (generation

@@ -5,6 +5,8 @@
 # planet and on the same definition with two other seeds. Definitions: docs/analysis.md.
 # Then the land's hypsometry of the three planets.
 # Usage: bench/planet_realism.sh [BUILD_DIR]   (default build/release)
+# RELIEF_MODEL=drainage measures the same planets with that relief model (planet.md "Relief
+# models"); the default is each definition's own (displacement).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build="${1:-build/release}"
@@ -15,15 +17,22 @@ trap 'rm -rf "$work"' EXIT
 # A definition and a land point of each planet: the first point of a fixed scan (latitudes 5, 15,
 # 25, 35, −5, −15, −25; longitudes −175 to 175 in steps of 10) where `planet sample` reports land
 # there and 0.1° north, south, east and west of it (generation 9 planets).
+model="${RELIEF_MODEL:-}"
 seeded() {
-  python3 -c "import json,sys; d=json.load(open('config/planets/default.json')); d['seed']=int(sys.argv[1]); print(json.dumps(d))" "$1" > "$work/seed-$1.json"
+  python3 -c "import json,sys; d=json.load(open('config/planets/default.json')); d['seed']=int(sys.argv[1])
+if sys.argv[2]: d['relief_model']=sys.argv[2]
+print(json.dumps(d))" "$1" "$model" > "$work/seed-$1.json"
   echo "$work/seed-$1.json"
 }
+default=config/planets/default.json
+if [ -n "$model" ]; then
+  default="$(seeded 20110627)"
+fi
 # Then three squares of the default planet's relief regions (generation 13): a plateau's top, its
 # escarpment and a coastal plain about 45 km from the sea.
-planets=("default config/planets/default.json 5 -175" "seed-7 $(seeded 7) 5 -165"
-  "seed-42 $(seeded 42) 5 -175" "plateau config/planets/default.json -35 110"
-  "escarpment config/planets/default.json -32 105" "coastal config/planets/default.json -35 98.6")
+planets=("default $default 5 -175" "seed-7 $(seeded 7) 5 -165"
+  "seed-42 $(seeded 42) 5 -175" "plateau $default -35 110"
+  "escarpment $default -32 105" "coastal $default -35 98.6")
 # channel_km2: the channel threshold the drop analysis chose (docs/analysis.md), * where no
 # candidate kept a constant drop and it is 1% of the square.
 printf '%-12s %4s %8s %8s %8s %7s %6s %6s %12s %8s\n' planet zoom cell_m pits_% closed_% theta r2 R_b channel_km2 seconds
@@ -55,7 +64,7 @@ done
 # 200 m detail; docs/analysis.md "Hypsometry"). Earth's land averages about 850 m.
 echo
 printf '%-12s %8s %8s %8s %8s %8s %9s\n' planet mean_m median_m '<500m_%' '<1km_%' '<2km_%' integral
-for definition in config/planets/default.json "$work/seed-7.json" "$work/seed-42.json"; do
+for definition in "$default" "$work/seed-7.json" "$work/seed-42.json"; do
   "$planet" hypsometry "$definition" > "$work/hypsometry.json"
   python3 - "$work/hypsometry.json" "$(basename "$definition" .json)" << 'PY'
 import json, sys

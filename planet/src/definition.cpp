@@ -121,6 +121,10 @@ bool valid_image_reference(std::string_view text) {
 
 }  // namespace
 
+std::string_view relief_model_name(ReliefModel model) {
+  return model == ReliefModel::drainage ? "drainage" : "displacement";
+}
+
 int PlanetDefinition::base_levels() const {
   // Bisection of the octahedron doubles the face count per level: 8·2^k faces.
   const double k = std::log2(static_cast<double>(base_faces) / 8.0);
@@ -159,6 +163,17 @@ Result<PlanetDefinition> parse_planet(const nlohmann::json& document) {
       Result<int> n = read_int(value, pointer, 0, kMaxLakes);
       if (!n) return n.error();
       d.lakes = *n;
+      continue;
+    }
+    if (key == "relief_model") {
+      const ReliefModel models[] = {ReliefModel::displacement, ReliefModel::drainage};
+      const auto named = std::find_if(std::begin(models), std::end(models), [&](ReliefModel m) {
+        return value.is_string() && value.get<std::string>() == relief_model_name(m);
+      });
+      if (named == std::end(models)) {
+        return Error{"must be \"displacement\" or \"drainage\"", pointer};
+      }
+      d.relief_model = *named;
       continue;
     }
     if (key == "continent_map") {
@@ -243,6 +258,9 @@ nlohmann::json fields_json(const PlanetDefinition& d, bool every_field) {
   out["base_faces"] = d.base_faces;
   static const PlanetDefinition defaults;
   if (every_field || d.lakes != defaults.lakes) out["lakes"] = d.lakes;
+  if (every_field || d.relief_model != defaults.relief_model) {
+    out["relief_model"] = relief_model_name(d.relief_model);
+  }
   for (const NumberField& f : number_fields()) {
     if (!every_field && f.written_when_set && d.*(f.member) == defaults.*(f.member)) continue;
     out[f.name] = d.*(f.member);

@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "detail_batch.hpp"
+#include "drain_floors.hpp"
 #include "gradient_noise.hpp"
 #include "planet/smooth_surface.hpp"
 
@@ -277,6 +278,11 @@ std::int32_t Sampler::descend(const Vec3d& p, int level, const DescentStart& sta
 
 DescentStart Sampler::descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level) {
   trim_when_large();
+  return find_descent_start(centre, points, level);
+}
+
+DescentStart Sampler::find_descent_start(const Vec3d& centre, std::span<const Vec3d> points,
+                                         int level) {
   std::vector<std::int32_t> path{hierarchy_.root_face(centre)};
   while (hierarchy_.tris[static_cast<std::size_t>(path.back())].level < level) {
     hierarchy_.ensure_split(path.back());
@@ -351,7 +357,8 @@ PointSample Sampler::finish(const Undetailed& sample, std::optional<double> deta
   return out;
 }
 
-Sampler::Undetailed Sampler::undetailed(std::int32_t t, const Vec3d& p, int level) {
+Sampler::Undetailed Sampler::undetailed(std::int32_t t, const Vec3d& p, int level,
+                                        bool with_floors) {
   const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(t)];
   const Vertex& x = hierarchy_.vertices[tri.v[0]];
   const Vertex& y = hierarchy_.vertices[tri.v[1]];
@@ -403,6 +410,11 @@ Sampler::Undetailed Sampler::undetailed(std::int32_t t, const Vec3d& p, int leve
   sample.channel = channel;
   sample.face = tri.face;
   sample.coast = ((x.flags | y.flags | z.flags) & kCoast) != 0;
+  // Last: the walk may split triangles, which moves tri, x, y and z.
+  if (with_floors && sample.face == FaceType::land && drainage_floors()) {
+    sample.out.ground = floors::floor_by_walk(hierarchy_, t, p, sample.out.ground,
+                                              floors::floor_shape(planet_->rules(), level), walk_);
+  }
   return sample;
 }
 

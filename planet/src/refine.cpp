@@ -144,6 +144,20 @@ constexpr double kLandOffset = 0.15;
 constexpr double kRiverOffset = 0.5;
 // A drain split's vertex keeps at least this share of its edge's drop to each end.
 constexpr double kDrainMargin = 0.2;
+// The drainage relief model (planet.md "Relief models"): a dry vertex stands above the corner it
+// drains to by min_drain_slope · (l / 1 km)^−kHangConcavity · l for a link l metres long, at most
+// kHangSteepest · l: links steepen towards the headwaters as Flint's law has it (slope ∝ area^−θ
+// with area ∝ l², so θ = kHangConcavity / 2), and a chain of links from any vertex down to a river
+// sums to a few hundred metres. Drains wind twice as far off their edge as land splits do, and
+// the belts' and plateaus' uplift rides kHangUpliftGain times on the links of the stored mesh and
+// the level below it only: carried by finer links it steepens trunks as much as headwaters and
+// Flint's law is lost (docs/analysis.md "Floors along the drains").
+constexpr double kHangConcavity = 1.3;
+constexpr double kHangSteepest = 0.1;
+constexpr double kHangDrainOffset = 2.0;
+constexpr double kHangUpliftGain = 5.0;
+// A vertex beside a lake stands at least this share of its rise above the lake.
+constexpr double kHangAboveLake = 0.1;
 // The slope ends this share of sea_depth down, on the ocean floor of the base mesh's sea.
 constexpr double kAbyssShare = 0.6;
 // A split under a lake deepens its floor by up to this slope times its edge: the coarse splits
@@ -215,6 +229,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       normalize(add(add(scale(a.p, wa), scale(t.p, wt)), add(scale(d.p, wd), scale(b.p, wb))));
   auto offset = [&](double share) { return normalize(add(mid, scale(sub(eq2, mid), share))); };
   const double l_ab = rules.radius * angle(a.p, b.p);
+  const bool hung = def.relief_model == ReliefModel::drainage;
   const bool dry_diamond = !wet(a) && !wet(b) && !wet(t) && !wet(d);
   // Dry: the water surface stays below the ground, so a river's water meets its banks inside
   // the triangles next to it instead of flooding them. The water surface of a dry vertex only
@@ -337,11 +352,15 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       const Vertex& up = a_up ? a : b;
       const Vertex& down = a_up ? b : a;
       const double high = a_up ? level_a : level_b, low = a_up ? level_b : level_a;
-      m.p = place(offset(kLandOffset));
+      m.p = place(offset(hung ? kLandOffset * kHangDrainOffset : kLandOffset));
       m.flags = kLand;
       reach_coast(corner_lengths());
       m.detail = static_cast<float>(rules.region(m.p, coast_distance(m)).ruggedness);
-      if (dry_diamond) {
+      if (hung) {  // the split point's share of the drop, so that both halves fall as steeply
+        const double to_up = angle(m.p, up.p), to_down = angle(m.p, down.p);
+        m.ground = low + (high - low) * std::clamp(to_down / (to_up + to_down), kDrainMargin,
+                                                   1.0 - kDrainMargin);
+      } else if (dry_diamond) {
         // On the smooth surface, kept within the middle of the drop.
         m.ground =
             std::clamp(smooth_ground_at(rules, a, b, t, d, m.p), low + kDrainMargin * (high - low),
@@ -401,6 +420,32 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   const Rules::Region region = rules.region(m.p, coast_distance(m));
   const double rugged = region.ruggedness;
   m.detail = static_cast<float>(rugged);
+  EdgeType* to[4] = {&r.half_a, &r.half_b, &r.spoke_t, &r.spoke_d};
+  if (hung) {
+    int receiver = 0;
+    double lowest = outflow_level(a);
+    for (int i = 1; i < 4; ++i) {
+      const double level_i = outflow_level(*corner[i]);
+      if (level_i < lowest) receiver = i, lowest = level_i;
+    }
+    const double link = length[receiver];
+    const double slope =
+        std::min(kHangSteepest, def.min_drain_slope * std::pow(link / 1000.0, -kHangConcavity));
+    m.ground = lowest + slope * link * rugged;
+    if (l_ab >= 0.9 * rules.edge_length(rules.mesh_level + 1)) {
+      const Vertex& below = *corner[receiver];
+      const double carried = wet(below) ? 0.0 : rules.region(below.p).uplift;
+      m.ground += kHangUpliftGain * std::max(0.0, region.uplift - carried);
+    }
+    for (const Vertex* c : corner) {
+      if ((c->flags & kLake) != 0) {
+        m.ground = std::max(m.ground, outflow_level(*c) + kHangAboveLake * slope * link);
+      }
+    }
+    *to[receiver] = EdgeType::drain;
+    m.water = dry_water(m.water);
+    return r;
+  }
   // The estimate: eq. 5 for a mountain vertex between rivers, else the surface under the new
   // position (the smooth one among dry corners, eq. 2's weights beside water) displaced by the
   // fractal's roughness at this edge length.
@@ -458,7 +503,6 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
     if (level_i < lowest) receiver = i, lowest = level_i;
   }
   m.ground = std::max(m.ground, lowest + rules.drain_rise(length[receiver], rugged));
-  EdgeType* to[4] = {&r.half_a, &r.half_b, &r.spoke_t, &r.spoke_d};
   *to[receiver] = EdgeType::drain;
   m.water = dry_water(m.water);
   return r;
@@ -486,6 +530,22 @@ SplitResult split_diamond(const Rules& rules, int level, const Vertex& a, const 
   // is ev2, apex1, ev1, apex2 counter-clockwise (Hierarchy::locate_child), summed from the same
   // corner whichever triangle of the diamond asks, so the same bits.
   if (!wet(r.m)) ground_slope(r.m) = fan_slope(r.m, {&ev2, &apex1, &ev1, &apex2}, rules.radius);
+  if (!wet(r.m) && rules.def.relief_model == ReliefModel::drainage) {
+    // No steeper than the secant to its nearest lower corner: the cubic of a vertex hung far
+    // below a fan of high neighbours would otherwise dip under its own drain a sample away.
+    double secant = std::numeric_limits<double>::infinity();
+    for (const Vertex* c : {&ev1, &ev2, &apex1, &apex2}) {
+      const double drop = r.m.ground - outflow_level(*c);
+      if (drop > 0.0) secant = std::min(secant, drop / (rules.radius * angle(r.m.p, c->p)));
+    }
+    std::array<float, 3>& slope = ground_slope(r.m);
+    const double steepness = std::sqrt(static_cast<double>(slope[0]) * slope[0] +
+                                       static_cast<double>(slope[1]) * slope[1] +
+                                       static_cast<double>(slope[2]) * slope[2]);
+    if (steepness > secant) {
+      for (float& component : slope) component = static_cast<float>(component * secant / steepness);
+    }
+  }
   return r;
 }
 

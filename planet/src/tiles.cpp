@@ -149,51 +149,12 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
     sin_lat[static_cast<std::size_t>(r)] = std::sin(lat * kDegree);
     cos_lat[static_cast<std::size_t>(r)] = std::cos(lat * kDegree);
   }
-  auto direction = [&](int r, int col) {
-    const auto ur = static_cast<std::size_t>(r), uc = static_cast<std::size_t>(col);
-    return world.geodesy().direction(sin_lat[ur], cos_lat[ur], sin_lon[uc], cos_lon[uc]);
-  };
-  // Samples go in blocks that share the start of their descent: the deepest triangle holding
-  // the block's outline (with a margin), found once per block. Each sample still checks that
-  // it lies inside that triangle and otherwise descends from the octahedron, so every height
-  // is the one a lone sample gets (see DescentStart); the block only saves the common part of
-  // the ~2 levels per zoom that all its samples would descend alike.
-  constexpr int kBlock = 16;
-  std::vector<Vec3d> outline, block;
-  std::vector<PointSample> samples;
-  for (int r0 = 0; r0 < ext; r0 += kBlock) {
-    const int r1 = std::min(ext, r0 + kBlock) - 1;
-    for (int c0 = 0; c0 < ext; c0 += kBlock) {
-      const int c1 = std::min(ext, c0 + kBlock) - 1;
-      outline.clear();
-      for (int c = c0; c <= c1; ++c) {
-        outline.push_back(direction(r0, c));
-        outline.push_back(direction(r1, c));
-      }
-      for (int r = r0 + 1; r < r1; ++r) {
-        outline.push_back(direction(r, c0));
-        outline.push_back(direction(r, c1));
-      }
-      const DescentStart start =
-          sampler_.descent_start(direction((r0 + r1) / 2, (c0 + c1) / 2), outline, level);
-      block.clear();
-      for (int r = r0; r <= r1; ++r) {
-        for (int col = c0; col <= c1; ++col) block.push_back(direction(r, col));
-      }
-      samples.resize(block.size());
-      sampler_.at(block, level, octaves, start, samples);
-      std::size_t next = 0;
-      for (int r = r0; r <= r1; ++r) {
-        for (int col = c0; col <= c1; ++col) {
-          const PointSample& sample = samples[next++];
-          const std::size_t at = static_cast<std::size_t>(r) * static_cast<std::size_t>(ext) +
-                                 static_cast<std::size_t>(col);
-          ground[at] = sample.ground;
-          wet[at] = sample.type == SurfaceType::land || sample.type == SurfaceType::coast ? 0 : 1;
-        }
-      }
-    }
-  }
+  sampler_.grid({ext, ext, lat_deg, lon_deg, sin_lat, cos_lat, sin_lon, cos_lon}, level, octaves,
+                [&](std::size_t at, const PointSample& sample) {
+                  ground[at] = sample.ground;
+                  wet[at] =
+                      sample.type == SurfaceType::land || sample.type == SurfaceType::coast ? 0 : 1;
+                });
   const auto count = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
   tile.elevation.resize(count);
   tile.slope_east.resize(count);

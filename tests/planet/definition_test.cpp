@@ -70,6 +70,8 @@ TEST(PlanetDefinition, BadDefinitionsAreRejectedNamingTheField) {
       {R"({"flattening": 0.5})", "/flattening"},
       {R"({"min_drain_slope": 0})", "/min_drain_slope"},
       {R"({"min_drain_slope": 2})", "/min_drain_slope"},
+      {R"({"relief_model": "eroded"})", "/relief_model"},
+      {R"({"relief_model": 1})", "/relief_model"},
       {R"({"relief_contrast": -0.5})", "/relief_contrast"},
       {R"({"relief_contrast": 3})", "/relief_contrast"},
       {R"({"belt_wavelength": 1000})", "/belt_wavelength"},
@@ -162,6 +164,7 @@ TEST(PlanetDefinition, FieldsAddedLaterAreInTheIdOnlyWhenTheyDifferFromTheDefaul
       {"shelf_depth", 130.0, 200.0},
       {"river_concavity", 0.5, 0.0},
       {"river_slope_area", 1e9, 1e10},
+      {"relief_model", "displacement", "drainage"},
   };
   Result<PlanetDefinition> plain = parse_planet_text(R"({"seed": 7})");
   ASSERT_TRUE(plain.ok());

@@ -30,6 +30,15 @@ struct DetailParams {
   double lacunarity = 2.2;      ///< r: octave k has wavelength / r^k
 };
 
+/// How dry land between the base mesh's rivers is made (planet.md "Relief models").
+/// `displacement`: midpoint displacement of the smooth surface, raised to drain along one edge
+/// (Derzapf et al.'s eq. 5, 11 and 12 with the drain rise). `drainage`: every dry vertex hangs
+/// from the corner it drains to by a rise that steepens towards the headwaters, and the ground
+/// is lowered along the drains of the level sampled, so that every level is a drainage network
+/// whose slopes follow Flint's law down to kilometre-scale valleys.
+enum class ReliefModel { displacement, drainage };
+std::string_view relief_model_name(ReliefModel model);
+
 /// The most lakes a definition may ask for (each is placed once when the planet is built).
 inline constexpr int kMaxLakes = 1000;
 
@@ -83,6 +92,7 @@ struct PlanetDefinition {
   /// The climate's share of dry land, 0 to 1: a lake whose climate is drier than 1 − aridity
   /// loses more water than it gains and is kept closed, below its rim, with no outflow.
   double aridity = 0.35;
+  ReliefModel relief_model = ReliefModel::displacement;
   int base_faces = 5000;      ///< base shape accuracy; rounded to 8·2^k faces
   double finest_edge = 10.0;  ///< refinement stops at edges this short; detail noise goes on
   DetailParams detail;
@@ -109,8 +119,8 @@ Result<PlanetDefinition> parse_planet_text(std::string_view text);
 Result<PlanetDefinition> load_planet_file(const std::string& path);
 
 /// Every field explicit, except continent_map, written only when set, and material,
-/// min_drain_slope, the relief fields, lakes and aridity, written only when they differ from the
-/// defaults (so planets defined before
+/// min_drain_slope, the relief fields (relief_model included), lakes and aridity, written only
+/// when they differ from the defaults (so planets defined before
 /// those fields existed keep their ids): parse_planet(canonical_json(d)) gives d back.
 nlohmann::json canonical_json(const PlanetDefinition& definition);
 /// Every field at its default, those canonical_json leaves out included (continent_map as "",

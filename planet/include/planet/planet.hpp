@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -135,6 +136,20 @@ struct DescentStart {
   }
 };
 
+/// A grid of directions for Sampler::grid, laid out as tiles are: `rows` × `cols`, row-major,
+/// row r at geodetic latitude latitude[r] (non-increasing with r) and column c at longitude[c]
+/// (increasing with c; may run past ±180°), with their sines and cosines (the longitude's of
+/// the wrapped angle): the sample is Geodesy::direction(sin_lat[r], cos_lat[r], sin_lon[c],
+/// cos_lon[c]).
+struct SampleGrid {
+  int rows = 0, cols = 0;
+  std::span<const double> latitude, longitude;  ///< degrees
+  std::span<const double> sin_lat, cos_lat, sin_lon, cos_lon;
+};
+
+/// Where Sampler::grid puts each sample: its index (row · cols + column) and the sample.
+using GridSink = std::function<void(std::size_t index, const PointSample& sample)>;
+
 /// Evaluates points of one planet. Keeps the refined hierarchy between calls as a cache (results
 /// never depend on it); not thread-safe: one per thread.
 class Sampler {
@@ -160,6 +175,10 @@ class Sampler {
   /// at once where the CPU has vectors for it).
   void at(std::span<const Vec3d> directions, int level, double octaves, const DescentStart& start,
           std::span<PointSample> out);
+  /// Every sample of a grid, handed to `out` with its index: each what at(direction, level,
+  /// octaves) gives, bit for bit, computed together (descents started per block, the detail noise
+  /// batched, the drainage model's floors drawn edge by edge instead of walked to per sample).
+  void grid(const SampleGrid& grid, int level, double octaves, const GridSink& out);
   /// The deepest triangle, at most `level`, on the way down to `centre` that holds every one
   /// of `points` by the margin: a start for the samples in and around them.
   DescentStart descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level);
@@ -179,7 +198,19 @@ class Sampler {
     bool coast = false;
   };
   PointSample evaluate(std::int32_t leaf, const Vec3d& direction, int level, double octaves);
-  Undetailed undetailed(std::int32_t leaf, const Vec3d& direction, int level);
+  /// `with_floors`: the drainage model's floors by a walk (a lone sample's; grid() draws them).
+  Undetailed undetailed(std::int32_t leaf, const Vec3d& direction, int level,
+                        bool with_floors = true);
+  bool drainage_floors() const {
+    return planet_->definition().relief_model == ReliefModel::drainage;
+  }
+  /// grid()'s floors: every drain edge of `level` within reach of a sample drawn onto the
+  /// samples it reaches (pending_[k] for grid sample order_[k], in leaves_[k], at
+  /// pending_directions_[k]).
+  void draw_floors(const SampleGrid& grid, int level);
+  /// grid()'s pending_ samples with their detail noise, to `out` with their order_ index
+  /// (pending_directions_ holds their directions).
+  void finish_pending(double octaves, const GridSink& out);
   /// The sample with `detail` added (none: no detail at all), clamped, and its water and type.
   PointSample finish(const Undetailed& sample, std::optional<double> detail) const;
   void trim_when_large();
@@ -188,6 +219,8 @@ class Sampler {
   /// it.
   double land_ground(std::int32_t t, const std::array<const Vertex*, 3>& corner,
                      const std::array<double, 3>& w);
+  /// descent_start without trimming the cache first.
+  DescentStart find_descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level);
   /// Triangle t with its edges' planes.
   DescentStart start_at(std::int32_t t) const;
   /// The triangle at `level` holding p: the leaf locate(p, level) finds, bit for bit, descending
@@ -203,8 +236,18 @@ class Sampler {
   std::vector<DescentStart> path_;
   int path_level_ = -1;  ///< the level that descent went to
   DescentStart leaf_;    ///< the last point's leaf, at path_level_
-  // Scratch of the batch at(): kept between calls so that a tile allocates nothing.
+  // Scratch of the batch at() and grid(): kept between calls so that a tile allocates nothing.
   std::vector<Undetailed> pending_;
+  std::vector<std::size_t> order_;         ///< grid(): the grid index of each pending_ sample
+  std::vector<Vec3d> pending_directions_;  ///< grid(): the direction of each pending_ sample
+  std::vector<std::int32_t> leaves_;       ///< grid(): the leaf of each pending_ sample
+  std::vector<std::int32_t> walk_;         ///< a floor walk's triangles
+  std::vector<std::int32_t> reached_;      ///< draw_floors(): the triangles within reach
+  std::vector<std::uint32_t> marks_;       ///< draw_floors(): == mark_ for a triangle in reached_
+  std::uint32_t mark_ = 0;
+  std::vector<double> ground_;    ///< draw_floors(): each sample's ground, NaN off land
+  std::vector<Vec3d> direction_;  ///< draw_floors(): each sample's direction
+  std::vector<double> floor_;     ///< draw_floors(): each sample's lowest floor so far
   std::vector<Vec3d> detailed_;
   std::vector<double> detail_;
   /// The surface of land triangle leaf_ground_tri_, this generation's (land_ground): its valley

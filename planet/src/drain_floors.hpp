@@ -1,0 +1,109 @@
+// The floors of the drainage relief model (planet.md "Relief models"): along every drain edge of
+// the level a sample is taken at, the ground is lowered towards the edge's own height, so that
+// the valleys of the level drain along their edges instead of between the corners' cubics.
+// One function says what one edge does to one point; a lone sample applies it to the drain
+// edges it walks to (floor_by_walk), a grid to the edges it draws (Sampler::grid), and both
+// take the minimum, which does not depend on the order, so they agree to the bit.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "planet/mesh.hpp"
+
+namespace planet::floors {
+
+/// How far a floor reaches and how it is shaped at one level: within `full` metres of its
+/// drain it lowers the ground all the way, out to `reach` less and less (a smoothstep).
+struct FloorShape {
+  double reach = 0.0;
+  double full = 0.0;
+  double round = 0.0;  ///< the floor's cross profile is d²/(2·round) within `round` of the axis
+  double radius = 0.0;
+  /// (`reach` in unit-sphere chords)², a little more.
+  double reach_chord2 = 0.0;
+  /// `reach` in unit-sphere chords.
+  double reach_chord() const { return reach / radius; }
+};
+
+/// A level's shape: a reach of a sample and a half (samples half an edge apart, as tiles of the
+/// level take them), lowering fully within half of it, rounded over half a sample.
+inline FloorShape floor_shape(const Rules& rules, int level) {
+  const double sample = 0.5 * rules.edge_length(level);
+  FloorShape shape;
+  shape.reach = 1.5 * sample;
+  shape.full = 0.5 * shape.reach;
+  shape.round = 0.5 * sample;
+  shape.radius = rules.radius;
+  shape.reach_chord2 = shape.reach_chord() * shape.reach_chord() * (1.0 + 1e-9);
+  return shape;
+}
+
+/// A drain edge, from its end with the smaller seed (positions break a tie) whichever triangle
+/// it is seen from, so that every caller computes the same bits.
+struct DrainSegment {
+  Vec3d a{}, ab{};
+  double inverse_length2 = 0.0;  ///< 1 / |ab|² (unit-sphere chords), 0 for a point
+  double ground = 0.0;           ///< at a
+  double drop = 0.0;             ///< ground at b minus ground at a
+  /// Metres the floor climbs per metre away from its axis: the drain's own slope and a little
+  /// more, so that the floor never rises across faster than its axis falls along.
+  double cross = 0.0;
+};
+
+inline DrainSegment drain_segment(const Vertex& u, const Vertex& v, double radius) {
+  const bool swap = u.seed > v.seed || (u.seed == v.seed && u.p > v.p);
+  const Vertex& a = swap ? v : u;
+  const Vertex& b = swap ? u : v;
+  DrainSegment s;
+  s.a = a.p;
+  s.ab = sub(b.p, a.p);
+  const double length2 = dot(s.ab, s.ab);
+  s.inverse_length2 = length2 > 0.0 ? 1.0 / length2 : 0.0;
+  s.ground = a.ground;
+  s.drop = b.ground - a.ground;
+  s.cross = 1e-4 + std::abs(s.drop) / (std::sqrt(length2) * radius);
+  return s;
+}
+
+/// The ground at p once the floor of drain `e` has lowered it (`ground` itself out of reach or
+/// where the floor stands higher).
+inline double lowered(double ground, const DrainSegment& e, const Vec3d& p,
+                      const FloorShape& shape) {
+  const Vec3d ap = sub(p, e.a);
+  const double f = std::clamp(dot(ap, e.ab) * e.inverse_length2, 0.0, 1.0);
+  const Vec3d off = sub(ap, scale(e.ab, f));
+  const double off2 = dot(off, off);
+  // Most points a grid tries are out of reach: known without the root (with room for its
+  // rounding, so that the test below still decides).
+  if (off2 > shape.reach_chord2) return ground;
+  const double d = std::sqrt(off2) * shape.radius;
+  if (!(d < shape.reach)) return ground;
+  const double across = d < shape.round ? d * d / (2.0 * shape.round) : d - 0.5 * shape.round;
+  const double floor = e.ground + f * e.drop + e.cross * across;
+  if (!(floor < ground)) return ground;
+  const double weight =
+      d <= shape.full ? 1.0 : 1.0 - smoothstep((d - shape.full) / (shape.reach - shape.full));
+  return ground - weight * (ground - floor);
+}
+
+/// Metres from p to the chord of edge (u, v), for deciding where a walk goes: the walk crosses
+/// every edge nearer than the reach (a little more, so that rounding never stops it short).
+inline bool within_reach(const Vec3d& u, const Vec3d& v, const Vec3d& p, const FloorShape& shape) {
+  const Vec3d uv = sub(v, u), up = sub(p, u);
+  const double l2 = dot(uv, uv);
+  const double f = std::clamp(l2 > 0.0 ? dot(up, uv) / l2 : 0.0, 0.0, 1.0);
+  const Vec3d off = sub(up, scale(uv, f));
+  const double limit = shape.reach_chord() * (1.0 + 1e-6);
+  return dot(off, off) <= limit * limit;
+}
+
+/// The ground at p, in leaf `leaf` of its level, with every floor of the level applied: a walk
+/// over the triangles the reach touches. The triangles a disc meets are connected through the
+/// edges it meets, so the walk finds every drain edge within reach. `visited` is scratch.
+double floor_by_walk(Hierarchy& hierarchy, std::int32_t leaf, const Vec3d& p, double ground,
+                     const FloorShape& shape, std::vector<std::int32_t>& visited);
+
+}  // namespace planet::floors

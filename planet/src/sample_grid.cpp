@@ -1,0 +1,277 @@
+// Sampler::grid: a tile's samples together. Each is what a lone sample at its direction gives,
+// bit for bit; what is shared is only the work: the start of the descents, the detail noise, and
+// the drainage model's floors, drawn once per drain edge onto the samples it reaches instead of
+// walked to from every sample.
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "drain_floors.hpp"
+#include "planet/planet.hpp"
+
+namespace planet {
+namespace {
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+// Which part of the sphere a grid covers, widened by a floor's reach: every chord within reach
+// of a sample has an end on the inner side of each bound (a chord with both ends beyond one is
+// beyond it all along). Latitude bounds are on z; longitude bounds on the meridians' planes,
+// kept only while the grid spans less than a quarter turn.
+struct GridBounds {
+  double z_lo = -2.0, z_hi = 2.0;
+  bool meridians = false;
+  Vec3d west{}, east{};  ///< normals pointing into the grid
+  double reach = 0.0;
+
+  bool near(const Vec3d& p) const {
+    return p[2] >= z_lo && p[2] <= z_hi &&
+           (!meridians || (dot(p, west) >= -reach && dot(p, east) >= -reach));
+  }
+  bool near(const Vec3d& a, const Vec3d& b) const {
+    if (a[2] < z_lo && b[2] < z_lo) return false;
+    if (a[2] > z_hi && b[2] > z_hi) return false;
+    if (meridians && ((dot(a, west) < -reach && dot(b, west) < -reach) ||
+                      (dot(a, east) < -reach && dot(b, east) < -reach))) {
+      return false;
+    }
+    return true;
+  }
+};
+
+GridBounds grid_bounds(const SampleGrid& grid, std::span<const Vec3d> directions, double reach) {
+  GridBounds bounds;
+  bounds.reach = reach;
+  double z_lo = 2.0, z_hi = -2.0;
+  for (int r = 0; r < grid.rows; ++r) {
+    const double z =
+        directions[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols)][2];
+    z_lo = std::min(z_lo, z);
+    z_hi = std::max(z_hi, z);
+  }
+  bounds.z_lo = z_lo - reach;
+  bounds.z_hi = z_hi + reach;
+  const double west = grid.longitude.front() * kDegree, east = grid.longitude.back() * kDegree;
+  if (east - west < 0.5 * std::numbers::pi) {
+    bounds.meridians = true;
+    bounds.west = {-std::sin(west), std::cos(west), 0.0};
+    bounds.east = {std::sin(east), -std::cos(east), 0.0};
+  }
+  return bounds;
+}
+
+// The rows whose latitude lies in [lo, hi] (latitudes non-increasing with the row): [first, end).
+std::pair<int, int> rows_between(std::span<const double> latitude, double lo, double hi) {
+  const auto first =
+      std::partition_point(latitude.begin(), latitude.end(), [&](double l) { return l > hi; });
+  const auto end = std::partition_point(first, latitude.end(), [&](double l) { return l >= lo; });
+  return {static_cast<int>(first - latitude.begin()), static_cast<int>(end - latitude.begin())};
+}
+
+// The columns whose longitude lies in [lo, hi] (increasing with the column): [first, end).
+std::pair<int, int> columns_between(std::span<const double> longitude, double lo, double hi) {
+  const auto first = std::lower_bound(longitude.begin(), longitude.end(), lo);
+  const auto end = std::upper_bound(first, longitude.end(), hi);
+  return {static_cast<int>(first - longitude.begin()), static_cast<int>(end - longitude.begin())};
+}
+
+}  // namespace
+
+void Sampler::grid(const SampleGrid& grid, int level, double octaves, const GridSink& out) {
+  assert(grid.latitude.size() == static_cast<std::size_t>(grid.rows));
+  assert(grid.longitude.size() == static_cast<std::size_t>(grid.cols));
+  // Once, here: the leaves kept for the floors must outlive every descent of the grid.
+  trim_when_large();
+  // Without floors each block is finished as soon as it is sampled (a tile's worth of pending
+  // samples is megabytes that a block's are not, and fresh megabytes cost page faults); with
+  // them every sample waits for the floors.
+  const bool floors = drainage_floors();
+  pending_.clear();
+  order_.clear();
+  leaves_.clear();
+  pending_directions_.clear();
+  const Geodesy& geodesy = planet_->geodesy();
+  const auto direction = [&](int r, int c) {
+    const auto ur = static_cast<std::size_t>(r), uc = static_cast<std::size_t>(c);
+    return geodesy.direction(grid.sin_lat[ur], grid.cos_lat[ur], grid.sin_lon[uc],
+                             grid.cos_lon[uc]);
+  };
+  // Samples go in blocks that share the start of their descent: the deepest triangle holding the
+  // block's outline (with a margin), found once per block. Each sample still checks that it lies
+  // inside that triangle and otherwise descends from the octahedron, so every height is the one
+  // a lone sample gets (see DescentStart); the block only saves the common part of the ~2 levels
+  // per zoom that all its samples would descend alike.
+  constexpr int kBlock = 16;
+  std::vector<Vec3d> outline;
+  for (int r0 = 0; r0 < grid.rows; r0 += kBlock) {
+    const int r1 = std::min(grid.rows, r0 + kBlock) - 1;
+    for (int c0 = 0; c0 < grid.cols; c0 += kBlock) {
+      const int c1 = std::min(grid.cols, c0 + kBlock) - 1;
+      outline.clear();
+      for (int c = c0; c <= c1; ++c) {
+        outline.push_back(direction(r0, c));
+        outline.push_back(direction(r1, c));
+      }
+      for (int r = r0 + 1; r < r1; ++r) {
+        outline.push_back(direction(r, c0));
+        outline.push_back(direction(r, c1));
+      }
+      const DescentStart start =
+          find_descent_start(direction((r0 + r1) / 2, (c0 + c1) / 2), outline, level);
+      for (int r = r0; r <= r1; ++r) {
+        for (int c = c0; c <= c1; ++c) {
+          const Vec3d p = direction(r, c);
+          const std::int32_t leaf = descend(p, level, start);
+          if (floors) leaves_.push_back(leaf);
+          order_.push_back(static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols) +
+                           static_cast<std::size_t>(c));
+          pending_directions_.push_back(p);
+          pending_.push_back(undetailed(leaf, p, level, false));
+        }
+      }
+      if (!floors) finish_pending(octaves, out);
+    }
+  }
+  if (floors) {
+    draw_floors(grid, level);
+    finish_pending(octaves, out);
+  }
+}
+
+void Sampler::finish_pending(double octaves, const GridSink& out) {
+  detailed_.clear();
+  const bool detailed = planet_->has_detail_octaves(octaves) && octaves > 0.0;
+  if (detailed) {
+    for (std::size_t k = 0; k < pending_.size(); ++k) {
+      if (pending_[k].weight > 0.0) detailed_.push_back(pending_directions_[k]);
+    }
+  }
+  detail_.resize(detailed_.size());
+  if (!detailed_.empty()) planet_->detail(detailed_, octaves, detail_);
+  std::size_t next = 0;
+  for (std::size_t k = 0; k < pending_.size(); ++k) {
+    const Undetailed& sample = pending_[k];
+    out(order_[k], detailed && sample.weight > 0.0 ? finish(sample, detail_[next++])
+                                                   : finish(sample, std::nullopt));
+  }
+  pending_.clear();
+  order_.clear();
+  pending_directions_.clear();
+}
+
+void Sampler::draw_floors(const SampleGrid& grid, int level) {
+  const std::size_t count = pending_.size();
+  if (std::none_of(pending_.begin(), pending_.end(),
+                   [](const Undetailed& s) { return s.face == FaceType::land; })) {
+    return;
+  }
+  const floors::FloorShape shape = floors::floor_shape(planet_->rules(), level);
+  // A little beyond the reach, so that rounding never leaves out an edge a walk would take.
+  const double reach = shape.reach_chord() * (1.0 + 1e-6);
+  // The grounds before and after, packed (the samples' records are ten times larger); NaN off
+  // land, which no floor lowers.
+  ground_.resize(count);
+  direction_.resize(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    direction_[order_[k]] = pending_directions_[k];
+    ground_[order_[k]] = pending_[k].face == FaceType::land
+                             ? pending_[k].out.ground
+                             : std::numeric_limits<double>::quiet_NaN();
+  }
+  floor_ = ground_;
+  const GridBounds bounds = grid_bounds(grid, direction_, reach);
+
+  // The triangles of the level within reach of a sample: from the samples' leaves across every
+  // edge near the grid. A walk from a sample crosses only edges within reach of it, which are
+  // near the grid, so this reaches every triangle any sample's walk does.
+  if (++mark_ == 0) {
+    std::fill(marks_.begin(), marks_.end(), 0U);
+    mark_ = 1;
+  }
+  const auto marked = [&](std::int32_t t) {
+    const auto u = static_cast<std::size_t>(t);
+    return u < marks_.size() && marks_[u] == mark_;
+  };
+  const auto mark = [&](std::int32_t t) {
+    const auto u = static_cast<std::size_t>(t);
+    if (u >= marks_.size()) marks_.resize(std::max(hierarchy_.tris.size(), u + 1), 0U);
+    marks_[u] = mark_;
+    reached_.push_back(t);
+  };
+  reached_.clear();
+  for (const std::int32_t leaf : leaves_) {
+    if (!marked(leaf)) mark(leaf);
+  }
+  for (std::size_t next = 0; next < reached_.size(); ++next) {
+    const std::int32_t u = reached_[next];
+    hierarchy_.ensure_partner(u);
+    const Tri tri = hierarchy_.tris[static_cast<std::size_t>(u)];
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::int32_t across = tri.nb[k];
+      if (across < 0 || marked(across)) continue;
+      if (!bounds.near(hierarchy_.vertices[tri.v[k]].p,
+                       hierarchy_.vertices[tri.v[(k + 1) % 3]].p)) {
+        continue;
+      }
+      mark(across);
+    }
+  }
+
+  // Each drain edge once (from the lower-numbered of its two triangles), onto the samples whose
+  // latitude and longitude lie within reach of it.
+  const Geodesy& geodesy = planet_->geodesy();
+  const double flattening = planet_->definition().flattening;
+  const double west = grid.longitude.front(), east = grid.longitude.back();
+  for (const std::int32_t u : reached_) {
+    const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(u)];
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (tri.edge[k] != EdgeType::drain) continue;
+      const std::int32_t across = tri.nb[k];
+      if (across >= 0 && marked(across) && across < u) continue;
+      const Vertex& a = hierarchy_.vertices[tri.v[k]];
+      const Vertex& b = hierarchy_.vertices[tri.v[(k + 1) % 3]];
+      if (!bounds.near(a.p, b.p)) continue;
+      const floors::DrainSegment segment = floors::drain_segment(a, b, shape.radius);
+      // Degrees of latitude within reach: the reach as an angle, widened for the ellipsoid's
+      // geodetic latitude (at most 1 + 2f of it) and for the arc's bulge beyond the chord.
+      const double margin =
+          ((1.0 + 2.0 * flattening) * reach * 1.001 + 0.125 * dot(segment.ab, segment.ab)) /
+              kDegree +
+          1e-9;
+      double lat_a = 0.0, lon_a = 0.0, lat_b = 0.0, lon_b = 0.0;
+      geodesy.direction_to_geographic(a.p, lat_a, lon_a);
+      geodesy.direction_to_geographic(b.p, lat_b, lon_b);
+      if (lon_b - lon_a > 180.0) lon_b -= 360.0;
+      if (lon_a - lon_b > 180.0) lon_b += 360.0;
+      const double lat_lo = std::min(lat_a, lat_b) - margin,
+                   lat_hi = std::max(lat_a, lat_b) + margin;
+      const auto [r_first, r_end] = rows_between(grid.latitude, lat_lo, lat_hi);
+      if (r_first >= r_end) continue;
+      const double polar = std::max(std::abs(lat_lo), std::abs(lat_hi));
+      const double widen = polar < 89.0 ? margin / std::cos(polar * kDegree) : 360.0;
+      for (const double turn : {-360.0, 0.0, 360.0}) {
+        const double lon_lo = std::min(lon_a, lon_b) + turn - widen;
+        const double lon_hi = std::max(lon_a, lon_b) + turn + widen;
+        if (lon_hi < west || lon_lo > east) continue;
+        const auto [c_first, c_end] = columns_between(grid.longitude, lon_lo, lon_hi);
+        for (int r = r_first; r < r_end; ++r) {
+          for (int c = c_first; c < c_end; ++c) {
+            const std::size_t i =
+                static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols) +
+                static_cast<std::size_t>(c);
+            if (std::isnan(ground_[i])) continue;
+            floor_[i] =
+                std::min(floor_[i], floors::lowered(ground_[i], segment, direction_[i], shape));
+          }
+        }
+      }
+    }
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    if (!std::isnan(floor_[order_[k]])) pending_[k].out.ground = floor_[order_[k]];
+  }
+}
+
+}  // namespace planet
