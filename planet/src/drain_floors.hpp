@@ -24,6 +24,8 @@ struct FloorShape {
   double radius = 0.0;
   /// (`reach` in unit-sphere chords)², a little more.
   double reach_chord2 = 0.0;
+  double half_over_round = 0.0;  ///< 1 / (2·round)
+  double over_fade = 0.0;        ///< 1 / (reach − full)
   /// `reach` in unit-sphere chords.
   double reach_chord() const { return reach / radius; }
 };
@@ -38,6 +40,8 @@ inline FloorShape floor_shape(const Rules& rules, int level) {
   shape.round = 0.5 * sample;
   shape.radius = rules.radius;
   shape.reach_chord2 = shape.reach_chord() * shape.reach_chord() * (1.0 + 1e-9);
+  shape.half_over_round = 0.5 / shape.round;
+  shape.over_fade = 1.0 / (shape.reach - shape.full);
   return shape;
 }
 
@@ -79,13 +83,16 @@ inline double lowered(double ground, const DrainSegment& e, const Vec3d& p,
   // Most points a grid tries are out of reach: known without the root (with room for its
   // rounding, so that the test below still decides).
   if (off2 > shape.reach_chord2) return ground;
+  // The floor stands on its axis and climbs away from it: nothing to lower below the axis.
+  const double axis = e.ground + f * e.drop;
+  if (!(axis < ground)) return ground;
   const double d = std::sqrt(off2) * shape.radius;
   if (!(d < shape.reach)) return ground;
-  const double across = d < shape.round ? d * d / (2.0 * shape.round) : d - 0.5 * shape.round;
-  const double floor = e.ground + f * e.drop + e.cross * across;
+  const double across = d < shape.round ? d * d * shape.half_over_round : d - 0.5 * shape.round;
+  const double floor = axis + e.cross * across;
   if (!(floor < ground)) return ground;
   const double weight =
-      d <= shape.full ? 1.0 : 1.0 - smoothstep((d - shape.full) / (shape.reach - shape.full));
+      d <= shape.full ? 1.0 : 1.0 - smoothstep((d - shape.full) * shape.over_fade);
   return ground - weight * (ground - floor);
 }
 

@@ -148,11 +148,14 @@ constexpr double kDrainMargin = 0.2;
 // drains to by min_drain_slope · (l / 1 km)^−kHangConcavity · l for a link l metres long, at most
 // kHangSteepest · l: links steepen towards the headwaters as Flint's law has it (slope ∝ area^−θ
 // with area ∝ l², so θ = kHangConcavity / 2), and a chain of links from any vertex down to a river
-// sums to a few hundred metres. Drains wind twice as far off their edge as land splits do, and
-// the belts' and plateaus' uplift rides kHangUpliftGain times on the links of the stored mesh and
+// sums to a few hundred metres. The rise grows with the square root of the region's ruggedness
+// (with all of it, the squares that mix smooth plateau tops with rugged escarpments scatter from
+// Flint's law at zoom 8). Drains wind twice as far off their edge as land splits do, and the
+// belts' and plateaus' uplift rides kHangUpliftGain times on the links of the stored mesh and
 // the level below it only: carried by finer links it steepens trunks as much as headwaters and
 // Flint's law is lost (docs/analysis.md "Floors along the drains").
 constexpr double kHangConcavity = 1.3;
+constexpr double kHangRuggedness = 0.5;
 constexpr double kHangSteepest = 0.1;
 constexpr double kHangDrainOffset = 2.0;
 constexpr double kHangUpliftGain = 5.0;
@@ -431,7 +434,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
     const double link = length[receiver];
     const double slope =
         std::min(kHangSteepest, def.min_drain_slope * std::pow(link / 1000.0, -kHangConcavity));
-    m.ground = lowest + slope * link * rugged;
+    m.ground = lowest + slope * link * std::pow(rugged, kHangRuggedness);
     if (l_ab >= 0.9 * rules.edge_length(rules.mesh_level + 1)) {
       const Vertex& below = *corner[receiver];
       const double carried = wet(below) ? 0.0 : rules.region(below.p).uplift;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <ranges>
 
 #include "drain_floors.hpp"
 #include "planet/planet.hpp"
@@ -19,7 +20,7 @@ constexpr double kDegree = std::numbers::pi / 180.0;
 // Which part of the sphere a grid covers, widened by a floor's reach: every chord within reach
 // of a sample has an end on the inner side of each bound (a chord with both ends beyond one is
 // beyond it all along). Latitude bounds are on z; longitude bounds on the meridians' planes,
-// kept only while the grid spans less than a quarter turn.
+// kept only while the grid spans less than a sixth of a turn.
 struct GridBounds {
   double z_lo = -2.0, z_hi = 2.0;
   bool meridians = false;
@@ -54,20 +55,12 @@ GridBounds grid_bounds(const SampleGrid& grid, std::span<const Vec3d> directions
   bounds.z_lo = z_lo - reach;
   bounds.z_hi = z_hi + reach;
   const double west = grid.longitude.front() * kDegree, east = grid.longitude.back() * kDegree;
-  if (east - west < 0.5 * std::numbers::pi) {
+  if (east - west < std::numbers::pi / 3.0) {
     bounds.meridians = true;
     bounds.west = {-std::sin(west), std::cos(west), 0.0};
     bounds.east = {std::sin(east), -std::cos(east), 0.0};
   }
   return bounds;
-}
-
-// The rows whose latitude lies in [lo, hi] (latitudes non-increasing with the row): [first, end).
-std::pair<int, int> rows_between(std::span<const double> latitude, double lo, double hi) {
-  const auto first =
-      std::partition_point(latitude.begin(), latitude.end(), [&](double l) { return l > hi; });
-  const auto end = std::partition_point(first, latitude.end(), [&](double l) { return l >= lo; });
-  return {static_cast<int>(first - latitude.begin()), static_cast<int>(end - latitude.begin())};
 }
 
 // The columns whose longitude lies in [lo, hi] (increasing with the column): [first, end).
@@ -219,11 +212,33 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
     }
   }
 
-  // Each drain edge once (from the lower-numbered of its two triangles), onto the samples whose
-  // latitude and longitude lie within reach of it.
+  // Each drain edge once (from the lower-numbered of its two triangles), onto the samples of the
+  // rows and columns within reach of it.
+  const auto draw = [&](const floors::DrainSegment& segment, int r_first, int r_end, int c_first,
+                        int c_end) {
+    for (int r = r_first; r < r_end; ++r) {
+      for (int c = c_first; c < c_end; ++c) {
+        const std::size_t i = static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols) +
+                              static_cast<std::size_t>(c);
+        if (std::isnan(ground_[i])) continue;
+        floor_[i] = std::min(floor_[i], floors::lowered(ground_[i], segment, direction_[i], shape));
+      }
+    }
+  };
+  // Rows by z: a sample within reach of a point of the chord differs from it in z by the reach
+  // at most, and the chord's z lies between its ends'. Rows' z falls with the row.
+  std::vector<double>& row_z = row_z_;
+  row_z.resize(static_cast<std::size_t>(grid.rows));
+  for (int r = 0; r < grid.rows; ++r) {
+    row_z[static_cast<std::size_t>(r)] =
+        direction_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols)][2];
+  }
   const Geodesy& geodesy = planet_->geodesy();
   const double flattening = planet_->definition().flattening;
   const double west = grid.longitude.front(), east = grid.longitude.back();
+  // A meridian's plane holds its column's samples (to rounding), so a sample within reach of a
+  // point of the chord has that point within the reach of its column's plane.
+  const double slab = reach + 1e-15;
   for (const std::int32_t u : reached_) {
     const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(u)];
     for (std::size_t k = 0; k < 3; ++k) {
@@ -234,8 +249,35 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
       const Vertex& b = hierarchy_.vertices[tri.v[(k + 1) % 3]];
       if (!bounds.near(a.p, b.p)) continue;
       const floors::DrainSegment segment = floors::drain_segment(a, b, shape.radius);
-      // Degrees of latitude within reach: the reach as an angle, widened for the ellipsoid's
-      // geodetic latitude (at most 1 + 2f of it) and for the arc's bulge beyond the chord.
+      const double z_lo = std::min(a.p[2], b.p[2]) - slab, z_hi = std::max(a.p[2], b.p[2]) + slab;
+      const int r_first = static_cast<int>(
+          std::partition_point(row_z.begin(), row_z.end(), [&](double z) { return z > z_hi; }) -
+          row_z.begin());
+      const int r_end = static_cast<int>(std::partition_point(row_z.begin() + r_first, row_z.end(),
+                                                              [&](double z) { return z >= z_lo; }) -
+                                         row_z.begin());
+      if (r_first >= r_end) continue;
+      if (bounds.meridians) {
+        // The plane of column c: (−sin λ_c, cos λ_c, 0)·q falls as c goes east while the grid
+        // spans less than a sixth of a turn.
+        const auto across_meridian = [&](std::size_t c, const Vec3d& q) {
+          return -q[0] * grid.sin_lon[c] + q[1] * grid.cos_lon[c];
+        };
+        const auto columns = std::views::iota(std::size_t{0}, static_cast<std::size_t>(grid.cols));
+        const auto first = std::ranges::partition_point(columns, [&](std::size_t c) {
+          return std::min(across_meridian(c, a.p), across_meridian(c, b.p)) > slab;
+        });
+        const auto end = std::ranges::partition_point(
+            std::ranges::subrange(first, columns.end()), [&](std::size_t c) {
+              return std::max(across_meridian(c, a.p), across_meridian(c, b.p)) >= -slab;
+            });
+        draw(segment, r_first, r_end, static_cast<int>(*first),
+             end == columns.end() ? grid.cols : static_cast<int>(*end));
+        continue;
+      }
+      // A grid a sixth of a turn wide or more (zooms 0 and 1): columns by longitude. Degrees within
+      // reach: the reach as an angle, widened for the ellipsoid's geodetic latitude (at most
+      // 1 + 2f of it) and for the arc's bulge beyond the chord.
       const double margin =
           ((1.0 + 2.0 * flattening) * reach * 1.001 + 0.125 * dot(segment.ab, segment.ab)) /
               kDegree +
@@ -245,27 +287,14 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
       geodesy.direction_to_geographic(b.p, lat_b, lon_b);
       if (lon_b - lon_a > 180.0) lon_b -= 360.0;
       if (lon_a - lon_b > 180.0) lon_b += 360.0;
-      const double lat_lo = std::min(lat_a, lat_b) - margin,
-                   lat_hi = std::max(lat_a, lat_b) + margin;
-      const auto [r_first, r_end] = rows_between(grid.latitude, lat_lo, lat_hi);
-      if (r_first >= r_end) continue;
-      const double polar = std::max(std::abs(lat_lo), std::abs(lat_hi));
+      const double polar = std::max(std::abs(lat_a), std::abs(lat_b)) + margin;
       const double widen = polar < 89.0 ? margin / std::cos(polar * kDegree) : 360.0;
       for (const double turn : {-360.0, 0.0, 360.0}) {
         const double lon_lo = std::min(lon_a, lon_b) + turn - widen;
         const double lon_hi = std::max(lon_a, lon_b) + turn + widen;
         if (lon_hi < west || lon_lo > east) continue;
         const auto [c_first, c_end] = columns_between(grid.longitude, lon_lo, lon_hi);
-        for (int r = r_first; r < r_end; ++r) {
-          for (int c = c_first; c < c_end; ++c) {
-            const std::size_t i =
-                static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols) +
-                static_cast<std::size_t>(c);
-            if (std::isnan(ground_[i])) continue;
-            floor_[i] =
-                std::min(floor_[i], floors::lowered(ground_[i], segment, direction_[i], shape));
-          }
-        }
+        draw(segment, r_first, r_end, c_first, c_end);
       }
     }
   }
