@@ -27,6 +27,12 @@ const SCENE_HELP = helpLine.textContent;
 const PLANET_HELP = 'Drag to move the globe · right-drag or shift-drag to turn and tilt · wheel or pinch to zoom · ' +
   'arrows / WASD move, Q E turn, R F tilt, + − zoom';
 const PLANET_PREFIX = 'planet:';  // picker values of planets
+
+// A planet's picker label: its id's start, and its relief model where it is not the default.
+function planetLabel(planet) {
+  const model = planet.definition?.relief_model;
+  return `planet ${planet.id.slice(0, 12)}${model ? ` (${model} relief)` : ''}`;
+}
 // How the tracer evaluates programs (SceneView.create): `?glsl=pruned`, `unrolled` or
 // `interpreter` in the page's address compares the modes on a given GPU; the default is
 // 'automatic'.
@@ -506,7 +512,7 @@ async function start() {
   const group = document.createElement('optgroup');
   group.label = 'Planets';
   const planetOptions = [['default', 'default planet'],
-    ...state.planets.filter((p) => !p.default).map((p) => [p.id, `planet ${p.id.slice(0, 12)}`])];
+    ...state.planets.filter((p) => !p.default).map((p) => [p.id, planetLabel(p)])];
   for (const [id, label] of planetOptions) {
     const option = document.createElement('option');
     option.value = PLANET_PREFIX + id;

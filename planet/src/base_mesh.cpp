@@ -417,8 +417,13 @@ class Classifier {
       const double share_here = le * flint_weight(area[v]) / weighted[v];
       const double least =
           def_.min_river_slope * std::min(1.0, std::pow(area[v] / def_.river_slope_area, -theta));
+      // The drainage relief model hangs its land a few hundred metres at most above the
+      // lowest of its neighbours, so its rivers climb at their least slope: raised towards a
+      // far spring, a river would stand on a wall above land that hangs from a lower river
+      // nearby (planet.md "Relief models").
+      const double towards_spring = 2.0 * random_.uniform() * (target - y.water) * share_here / le;
       const double rise =
-          std::max(least, 2.0 * random_.uniform() * (target - y.water) * share_here / le);
+          def_.relief_model == ReliefModel::drainage ? least : std::max(least, towards_spring);
       x.water = std::max(std::min(y.water + le * rise, top), y.water + le * least);
       x.ground = x.water - depth_for(v);
       mesh_.stats.longest_river = std::max(mesh_.stats.longest_river, longest[v]);

@@ -150,15 +150,14 @@ constexpr double kDrainMargin = 0.2;
 // with area ∝ l², so θ = kHangConcavity / 2), and a chain of links from any vertex down to a river
 // sums to a few hundred metres. The rise grows with the square root of the region's ruggedness
 // (with all of it, the squares that mix smooth plateau tops with rugged escarpments scatter from
-// Flint's law at zoom 8). Drains wind twice as far off their edge as land splits do, and the
-// belts' and plateaus' uplift rides kHangUpliftGain times on the links of the stored mesh and
-// the level below it only: carried by finer links it steepens trunks as much as headwaters and
-// Flint's law is lost (docs/analysis.md "Floors along the drains").
+// Flint's law at zoom 8). Drains wind twice as far off their edge as land splits do, and a
+// vertex adds the belts' and plateaus' uplift it has beyond its receiver on the links of the
+// stored mesh and the level below it only: carried by finer links it steepens trunks as much as
+// headwaters and Flint's law is lost (docs/analysis.md "Floors along the drains").
 constexpr double kHangConcavity = 1.3;
 constexpr double kHangRuggedness = 0.5;
 constexpr double kHangSteepest = 0.1;
 constexpr double kHangDrainOffset = 2.0;
-constexpr double kHangUpliftGain = 5.0;
 // A vertex beside a lake stands at least this share of its rise above the lake.
 constexpr double kHangAboveLake = 0.1;
 // The slope ends this share of sea_depth down, on the ocean floor of the base mesh's sea.
@@ -438,7 +437,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
     if (l_ab >= 0.9 * rules.edge_length(rules.mesh_level + 1)) {
       const Vertex& below = *corner[receiver];
       const double carried = wet(below) ? 0.0 : rules.region(below.p).uplift;
-      m.ground += kHangUpliftGain * std::max(0.0, region.uplift - carried);
+      m.ground += std::max(0.0, region.uplift - carried);
     }
     for (const Vertex* c : corner) {
       if ((c->flags & kLake) != 0) {
