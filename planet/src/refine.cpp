@@ -150,10 +150,10 @@ constexpr double kDrainMargin = 0.2;
 // with area ∝ l², so θ = kHangConcavity / 2), and a chain of links from any vertex down to a river
 // sums to a few hundred metres. The rise grows with the square root of the region's ruggedness
 // (with all of it, the squares that mix smooth plateau tops with rugged escarpments scatter from
-// Flint's law at zoom 8). Drains wind twice as far off their edge as land splits do, and a
-// vertex adds the belts' and plateaus' uplift it has beyond its receiver on the links of the
-// stored mesh and the level below it only: carried by finer links it steepens trunks as much as
-// headwaters and Flint's law is lost (docs/analysis.md "Floors along the drains").
+// Flint's law at zoom 8). Drains wind twice as far off their edge as land splits do. The belts'
+// and plateaus' uplift is not carried: on every link it steepens trunks as much as headwaters,
+// and on the coarse links alone it stands up as spikes and cliffs that the finer vertices,
+// hung from lower corners, do not follow (docs/analysis.md "The drainage relief model").
 constexpr double kHangConcavity = 1.3;
 constexpr double kHangRuggedness = 0.5;
 constexpr double kHangSteepest = 0.1;
@@ -408,7 +408,9 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       }
       if (lower < upper) {
         m.flags = kLand | kRiver;
-        m.ground = m.water = lower + (upper - lower) * 0.25 * g1;  // a spring: water = ground
+        // A spring: water = ground. The drainage model's springs rise no higher than their
+        // least slope allows, as its base rivers do (base_mesh.cpp), or they stand on walls.
+        m.ground = m.water = hung ? lower : lower + (upper - lower) * 0.25 * g1;
         m.tangent = tangent_at(m.p, sub(corner[river]->p, m.p));
         EdgeType* to[4] = {&r.half_a, &r.half_b, &r.spoke_t, &r.spoke_d};
         *to[river] = EdgeType::river;
@@ -434,11 +436,6 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
     const double slope =
         std::min(kHangSteepest, def.min_drain_slope * std::pow(link / 1000.0, -kHangConcavity));
     m.ground = lowest + slope * link * std::pow(rugged, kHangRuggedness);
-    if (l_ab >= 0.9 * rules.edge_length(rules.mesh_level + 1)) {
-      const Vertex& below = *corner[receiver];
-      const double carried = wet(below) ? 0.0 : rules.region(below.p).uplift;
-      m.ground += std::max(0.0, region.uplift - carried);
-    }
     for (const Vertex* c : corner) {
       if ((c->flags & kLake) != 0) {
         m.ground = std::max(m.ground, outflow_level(*c) + kHangAboveLake * slope * link);
