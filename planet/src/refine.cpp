@@ -150,11 +150,14 @@ constexpr double kDrainMargin = 0.2;
 // with area ∝ l², so θ = kHangConcavity / 2), and a chain of links from any vertex down to a river
 // sums to a few hundred metres. The rise grows with the square root of the region's ruggedness
 // (with all of it, the squares that mix smooth plateau tops with rugged escarpments scatter from
-// Flint's law at zoom 8). Drains wind twice as far off their edge as land splits do. The belts'
-// and plateaus' uplift is not carried: on every link it steepens trunks as much as headwaters,
-// and on the coarse links alone it stands up as spikes and cliffs that the finer vertices,
-// hung from lower corners, do not follow (docs/analysis.md "The drainage relief model").
+// Flint's law at zoom 8), and with the belts' and plateaus' uplift U as 1 + U / kHangUpliftScale:
+// the stream-power law's steady slope grows with the uplift rate, so belts steepen every link
+// alike and keep θ. Added to the height instead, the uplift steepened trunks as much as
+// headwaters on every link, and on the coarse links alone stood up as spikes and cliffs that the
+// finer vertices, hung from lower corners, did not follow (docs/analysis.md "The drainage relief
+// model"). Drains wind twice as far off their edge as land splits do.
 constexpr double kHangConcavity = 1.3;
+constexpr double kHangUpliftScale = 500.0;
 constexpr double kHangRuggedness = 0.5;
 constexpr double kHangSteepest = 0.1;
 constexpr double kHangDrainOffset = 2.0;
@@ -435,7 +438,8 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
     const double link = length[receiver];
     const double slope =
         std::min(kHangSteepest, def.min_drain_slope * std::pow(link / 1000.0, -kHangConcavity));
-    m.ground = lowest + slope * link * std::pow(rugged, kHangRuggedness);
+    m.ground = lowest + slope * link * std::pow(rugged, kHangRuggedness) *
+                            (1.0 + region.uplift / kHangUpliftScale);
     for (const Vertex* c : corner) {
       if ((c->flags & kLake) != 0) {
         m.ground = std::max(m.ground, outflow_level(*c) + kHangAboveLake * slope * link);
