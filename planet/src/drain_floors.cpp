@@ -16,7 +16,7 @@ double floor_by_walk(Hierarchy& hierarchy, std::int32_t leaf, const Vec3d& p, do
       const Vertex& b = hierarchy.vertices[tri.v[(k + 1) % 3]];
       if (!within_reach(a.p, b.p, p, shape)) continue;
       if (tri.edge[k] == EdgeType::drain) {
-        result = std::min(result, lowered(ground, drain_segment(a, b, shape.radius), p, shape));
+        result = std::min(result, lowered(ground, drain_segment(a, b, shape), p, shape));
       }
       const std::int32_t across = tri.nb[k];
       if (across >= 0 && std::find(visited.begin(), visited.end(), across) == visited.end()) {

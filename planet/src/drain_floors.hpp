@@ -16,31 +16,36 @@
 namespace planet::floors {
 
 /// How far a floor reaches and how it is shaped at one level: within `full` metres of its
-/// drain it lowers the ground all the way, out to `reach` less and less (a smoothstep).
+/// drain it lowers the ground all the way, out to `reach` less and less (a smoothstep), and it
+/// climbs away from its axis as d²/(2·reach): no part of it is planar (docs/planet.md "Relief
+/// models": with a linear profile beyond half a sample, the floors' planar strips failed the
+/// flat-facet test).
 struct FloorShape {
   double reach = 0.0;
   double full = 0.0;
-  double round = 0.0;  ///< the floor's cross profile is d²/(2·round) within `round` of the axis
   double radius = 0.0;
+  /// Where the ground meets a floor it is eased onto it over the floor's rise across this
+  /// many metres (so that the surface keeps its slope there: C1).
+  double ease = 0.0;
   /// (`reach` in unit-sphere chords)², a little more.
   double reach_chord2 = 0.0;
-  double half_over_round = 0.0;  ///< 1 / (2·round)
+  double half_over_reach = 0.0;  ///< 1 / (2·reach)
   double over_fade = 0.0;        ///< 1 / (reach − full)
   /// `reach` in unit-sphere chords.
   double reach_chord() const { return reach / radius; }
 };
 
 /// A level's shape: a reach of a sample and a half (samples half an edge apart, as tiles of the
-/// level take them), lowering fully within half of it, rounded over half a sample.
+/// level take them), lowering fully within half of it, eased over half a sample.
 inline FloorShape floor_shape(const Rules& rules, int level) {
   const double sample = 0.5 * rules.edge_length(level);
   FloorShape shape;
   shape.reach = 1.5 * sample;
   shape.full = 0.5 * shape.reach;
-  shape.round = 0.5 * sample;
+  shape.ease = 0.5 * sample;
   shape.radius = rules.radius;
   shape.reach_chord2 = shape.reach_chord() * shape.reach_chord() * (1.0 + 1e-9);
-  shape.half_over_round = 0.5 / shape.round;
+  shape.half_over_reach = 0.5 / shape.reach;
   shape.over_fade = 1.0 / (shape.reach - shape.full);
   return shape;
 }
@@ -55,9 +60,12 @@ struct DrainSegment {
   /// Metres the floor climbs per metre away from its axis: the drain's own slope and a little
   /// more, so that the floor never rises across faster than its axis falls along.
   double cross = 0.0;
+  /// The ground's height above the floor within which it is eased onto it, and 1 / twice that.
+  double ease = 0.0, half_over_ease = 0.0;
 };
 
-inline DrainSegment drain_segment(const Vertex& u, const Vertex& v, double radius) {
+inline DrainSegment drain_segment(const Vertex& u, const Vertex& v, const FloorShape& shape) {
+  const double radius = shape.radius;
   const bool swap = u.seed > v.seed || (u.seed == v.seed && u.p > v.p);
   const Vertex& a = swap ? v : u;
   const Vertex& b = swap ? u : v;
@@ -69,6 +77,8 @@ inline DrainSegment drain_segment(const Vertex& u, const Vertex& v, double radiu
   s.ground = a.ground;
   s.drop = b.ground - a.ground;
   s.cross = 1e-4 + std::abs(s.drop) / (std::sqrt(length2) * radius);
+  s.ease = s.cross * shape.ease;
+  s.half_over_ease = 0.5 / s.ease;
   return s;
 }
 
@@ -88,12 +98,14 @@ inline double lowered(double ground, const DrainSegment& e, const Vec3d& p,
   if (!(axis < ground)) return ground;
   const double d = std::sqrt(off2) * shape.radius;
   if (!(d < shape.reach)) return ground;
-  const double across = d < shape.round ? d * d * shape.half_over_round : d - 0.5 * shape.round;
-  const double floor = axis + e.cross * across;
-  if (!(floor < ground)) return ground;
+  const double floor = axis + e.cross * (d * d * shape.half_over_reach);
+  const double above = ground - floor;
+  if (!(above > 0.0)) return ground;
   const double weight =
       d <= shape.full ? 1.0 : 1.0 - smoothstep((d - shape.full) * shape.over_fade);
-  return ground - weight * (ground - floor);
+  // Lowered by `above` less half the ease, eased in quadratically where the floor is near.
+  const double lowering = above < e.ease ? above * above * e.half_over_ease : above - 0.5 * e.ease;
+  return ground - weight * lowering;
 }
 
 /// Metres from p to the chord of edge (u, v), for deciding where a walk goes: the walk crosses

@@ -248,7 +248,7 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
       const Vertex& a = hierarchy_.vertices[tri.v[k]];
       const Vertex& b = hierarchy_.vertices[tri.v[(k + 1) % 3]];
       if (!bounds.near(a.p, b.p)) continue;
-      const floors::DrainSegment segment = floors::drain_segment(a, b, shape.radius);
+      const floors::DrainSegment segment = floors::drain_segment(a, b, shape);
       const double z_lo = std::min(a.p[2], b.p[2]) - slab, z_hi = std::max(a.p[2], b.p[2]) + slab;
       const int r_first = static_cast<int>(
           std::partition_point(row_z.begin(), row_z.end(), [&](double z) { return z > z_hi; }) -

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "default_definition.hpp"
@@ -109,23 +110,33 @@ TEST(CloughTocher, FanSlopeIsThePlanesGradient) {
 }
 
 // The default planet's land around 5° N 175° W (bench/planet_realism.sh's square) at a level of
-// ~1 km edges, without the fractal detail: the mesh's own surface.
-class DryLand : public ::testing::Test {
+// ~1 km edges, without the fractal detail: the mesh's own surface, with either relief model (the
+// drainage model's floors included).
+class DryLand : public ::testing::TestWithParam<ReliefModel> {
  protected:
-  static void SetUpTestSuite() { planet_ = Planet::create(test::default_definition()); }
-  static void TearDownTestSuite() { planet_.reset(); }
+  // One planet per relief model, built once for every test that asks.
+  static const std::shared_ptr<const Planet>& planet() {
+    static const std::shared_ptr<const Planet> displacement =
+        Planet::create(test::default_definition());
+    static const std::shared_ptr<const Planet> drainage = [] {
+      PlanetDefinition d = test::default_definition();
+      d.relief_model = ReliefModel::drainage;
+      return Planet::create(d);
+    }();
+    return GetParam() == ReliefModel::drainage ? drainage : displacement;
+  }
 
   int level() const {
-    int level = planet_->rules().mesh_level;
-    while (planet_->rules().edge_length(level) > 1200.0) ++level;
+    int level = planet()->rules().mesh_level;
+    while (planet()->rules().edge_length(level) > 1200.0) ++level;
     return level;
   }
   // A point `east`, `north` metres from the square's centre (on the tangent plane, lifted).
   Vec3d point(double east, double north) const {
-    const Vec3d centre = planet_->geodesy().direction(5.0, -175.0);
+    const Vec3d centre = planet()->geodesy().direction(5.0, -175.0);
     const Vec3d e = normalize(cross({0.0, 0.0, 1.0}, centre));
     const Vec3d n = cross(centre, e);
-    const double r = planet_->definition().radius;
+    const double r = planet()->definition().radius;
     return normalize(add(centre, add(scale(e, east / r), scale(n, north / r))));
   }
   // A land triangle whose corners are all dry.
@@ -168,8 +179,8 @@ class DryLand : public ::testing::Test {
   template <typename Selected>
   int check_crossings(const std::vector<double>& norths, double from, double to,
                       const Selected& selected, double allowance = 1e-5) const {
-    Sampler sampler(planet_);
-    Hierarchy h = planet_->base_mesh().hierarchy;
+    Sampler sampler(planet());
+    Hierarchy h = planet()->base_mesh().hierarchy;
     const double step = 20.0;
     int crossings = 0;
     for (const double north : norths) {
@@ -196,15 +207,16 @@ class DryLand : public ::testing::Test {
     }
     return crossings;
   }
-
-  static std::shared_ptr<const Planet> planet_;
 };
-std::shared_ptr<const Planet> DryLand::planet_;
 
-TEST_F(DryLand, HasNoFlatFacets) {
+// The valleys beside the rivers: the displacement model's (the drainage model's floors follow
+// its drains, not these lines).
+class DryLandBesideRivers : public DryLand {};
+
+TEST_P(DryLand, HasNoFlatFacets) {
   // The share of samples whose four neighbours 50 m away average to their own height: every
   // sample inside a flat facet does. On the piecewise-linear surface this was most of them.
-  Sampler sampler(planet_);
+  Sampler sampler(planet());
   const int n = 64;
   std::vector<double> ground(n * n);
   for (int i = 0; i < n; ++i) {
@@ -225,7 +237,7 @@ TEST_F(DryLand, HasNoFlatFacets) {
   EXPECT_LT(flat, samples / 100) << flat << " of " << samples << " samples lie in flat facets";
 }
 
-TEST_F(DryLand, HasNoCreasesAcrossTriangleEdges) {
+TEST_P(DryLand, HasNoCreasesAcrossTriangleEdges) {
   // Along lines over the square, every crossing from one dry triangle into another: the slope's
   // change across it shrinks with the step (C1), where a crease would keep it.
   std::vector<double> norths;
@@ -237,7 +249,7 @@ TEST_F(DryLand, HasNoCreasesAcrossTriangleEdges) {
   EXPECT_GT(crossings, 40);
 }
 
-TEST_F(DryLand, ValleySidesMeetTheDryLandWithoutACrease) {
+TEST_P(DryLandBesideRivers, ValleySidesMeetTheDryLandWithoutACrease) {
   // Lines across a river valley 15–35 km east of the square's centre: every crossing from a
   // triangle beside the water (a valley's floor and side) into a dry one over an edge with two
   // dry ends. The valley side reaches the smooth surface with its slope there (C1), where the
@@ -256,7 +268,7 @@ TEST_F(DryLand, ValleySidesMeetTheDryLandWithoutACrease) {
   EXPECT_GT(crossings, 20);
 }
 
-TEST_F(DryLand, SpokesFromWetCornersHaveNoCrease) {
+TEST_P(DryLandBesideRivers, SpokesFromWetCornersHaveNoCrease) {
   // The same lines: every crossing between two triangles beside the water over an edge with one
   // wet end and one dry end (a spoke from a river vertex). The valley side blends into its floor
   // by a dryness that is C1 across every edge; until generation 15 the blend's weight was the
@@ -276,10 +288,10 @@ TEST_F(DryLand, SpokesFromWetCornersHaveNoCrease) {
   EXPECT_GT(crossings, 20);
 }
 
-TEST_F(DryLand, SplitsGiveTheSameVertexFromEitherTriangleOfTheirDiamond) {
+TEST_P(DryLand, SplitsGiveTheSameVertexFromEitherTriangleOfTheirDiamond) {
   // A split is computed by whichever of the diamond's two triangles a descent reaches first; the
   // smooth prediction and the fan's slope must not depend on which, to the bit.
-  Hierarchy h = planet_->base_mesh().hierarchy;
+  Hierarchy h = planet()->base_mesh().hierarchy;
   int dry = 0;
   for (int k = 0; k < 1000; ++k) {
     const std::int32_t t = h.locate(point(7.0 * k, 5.0 * k), level() - 1);
@@ -293,6 +305,15 @@ TEST_F(DryLand, SplitsGiveTheSameVertexFromEitherTriangleOfTheirDiamond) {
   }
   EXPECT_GT(dry, 500);
 }
+
+std::string model_name(const ::testing::TestParamInfo<ReliefModel>& info) {
+  return std::string(relief_model_name(info.param));
+}
+INSTANTIATE_TEST_SUITE_P(ReliefModels, DryLand,
+                         ::testing::Values(ReliefModel::displacement, ReliefModel::drainage),
+                         model_name);
+INSTANTIATE_TEST_SUITE_P(Displacement, DryLandBesideRivers,
+                         ::testing::Values(ReliefModel::displacement), model_name);
 
 }  // namespace
 }  // namespace planet
