@@ -534,7 +534,7 @@ SplitResult split_diamond(const Rules& rules, int level, const Vertex& a, const 
   // corner whichever triangle of the diamond asks, so the same bits.
   if (!wet(r.m)) ground_slope(r.m) = fan_slope(r.m, {&ev2, &apex1, &ev1, &apex2}, rules.radius);
   if (!wet(r.m) && rules.def.relief_model == ReliefModel::drainage) {
-    // No steeper than the secant to its nearest lower corner: the cubic of a vertex hung far
+    // No steeper than its gentlest secant to a lower corner: the cubic of a vertex hung far
     // below a fan of high neighbours would otherwise dip under its own drain a sample away.
     double secant = std::numeric_limits<double>::infinity();
     for (const Vertex* c : {&ev1, &ev2, &apex1, &apex2}) {

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <ranges>
 
 #include "drain_floors.hpp"
 #include "planet/planet.hpp"
@@ -27,10 +26,6 @@ struct GridBounds {
   Vec3d west{}, east{};  ///< normals pointing into the grid
   double reach = 0.0;
 
-  bool near(const Vec3d& p) const {
-    return p[2] >= z_lo && p[2] <= z_hi &&
-           (!meridians || (dot(p, west) >= -reach && dot(p, east) >= -reach));
-  }
   bool near(const Vec3d& a, const Vec3d& b) const {
     if (a[2] < z_lo && b[2] < z_lo) return false;
     if (a[2] > z_hi && b[2] > z_hi) return false;
@@ -61,6 +56,20 @@ GridBounds grid_bounds(const SampleGrid& grid, std::span<const Vec3d> directions
     bounds.east = {std::sin(east), -std::cos(east), 0.0};
   }
   return bounds;
+}
+
+// The first index in [lo, hi) where `holds` does not, `holds` holding on a prefix of them.
+template <typename Predicate>
+int first_where_not(int lo, int hi, const Predicate& holds) {
+  while (lo < hi) {
+    const int mid = lo + (hi - lo) / 2;
+    if (holds(mid)) {
+      lo = mid + 1;
+    } else {
+      hi = mid;
+    }
+  }
+  return lo;
 }
 
 // The columns whose longitude lies in [lo, hi] (increasing with the column): [first, end).
@@ -263,16 +272,15 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
         const auto across_meridian = [&](std::size_t c, const Vec3d& q) {
           return -q[0] * grid.sin_lon[c] + q[1] * grid.cos_lon[c];
         };
-        const auto columns = std::views::iota(std::size_t{0}, static_cast<std::size_t>(grid.cols));
-        const auto first = std::ranges::partition_point(columns, [&](std::size_t c) {
-          return std::min(across_meridian(c, a.p), across_meridian(c, b.p)) > slab;
+        const int first = first_where_not(0, grid.cols, [&](int c) {
+          const auto column = static_cast<std::size_t>(c);
+          return std::min(across_meridian(column, a.p), across_meridian(column, b.p)) > slab;
         });
-        const auto end = std::ranges::partition_point(
-            std::ranges::subrange(first, columns.end()), [&](std::size_t c) {
-              return std::max(across_meridian(c, a.p), across_meridian(c, b.p)) >= -slab;
-            });
-        draw(segment, r_first, r_end, static_cast<int>(*first),
-             end == columns.end() ? grid.cols : static_cast<int>(*end));
+        const int end = first_where_not(first, grid.cols, [&](int c) {
+          const auto column = static_cast<std::size_t>(c);
+          return std::max(across_meridian(column, a.p), across_meridian(column, b.p)) >= -slab;
+        });
+        draw(segment, r_first, r_end, first, end);
         continue;
       }
       // A grid a sixth of a turn wide or more (zooms 0 and 1): columns by longitude. Degrees within
