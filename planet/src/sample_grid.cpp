@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <numbers>
 
@@ -84,6 +85,9 @@ std::pair<int, int> columns_between(std::span<const double> longitude, double lo
 void Sampler::grid(const SampleGrid& grid, int level, double octaves, const GridSink& out) {
   assert(grid.latitude.size() == static_cast<std::size_t>(grid.rows));
   assert(grid.longitude.size() == static_cast<std::size_t>(grid.cols));
+  // The floors find their rows and columns by binary searches over these orders.
+  assert(std::is_sorted(grid.latitude.begin(), grid.latitude.end(), std::greater<>()));
+  assert(std::is_sorted(grid.longitude.begin(), grid.longitude.end()));
   // Once, here: the leaves kept for the floors must outlive every descent of the grid.
   trim_when_large();
   // Without floors each block is finished as soon as it is sampled (a tile's worth of pending

@@ -247,7 +247,7 @@ class Sampler {
   std::uint32_t mark_ = 0;
   std::vector<double> ground_;    ///< draw_floors(): each sample's ground, NaN off land
   std::vector<Vec3d> direction_;  ///< draw_floors(): each sample's direction
-  std::vector<double> row_z_;  ///< draw_floors(): each row's z
+  std::vector<double> row_z_;     ///< draw_floors(): each row's z
   std::vector<double> floor_;     ///< draw_floors(): each sample's lowest floor so far
   std::vector<Vec3d> detailed_;
   std::vector<double> detail_;
