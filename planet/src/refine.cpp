@@ -428,13 +428,16 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   const double rugged = region.ruggedness;
   m.detail = static_cast<float>(rugged);
   EdgeType* to[4] = {&r.half_a, &r.half_b, &r.spoke_t, &r.spoke_d};
+  // Drainage at every level: the new vertex drains along the edge to its lowest corner and
+  // stands above it by a rise at least, so it is not a pit now, and the drain split above keeps
+  // it from becoming one after any later split.
+  int receiver = 0;
+  double lowest = outflow_level(a);
+  for (int i = 1; i < 4; ++i) {
+    const double level_i = outflow_level(*corner[i]);
+    if (level_i < lowest) receiver = i, lowest = level_i;
+  }
   if (hung) {
-    int receiver = 0;
-    double lowest = outflow_level(a);
-    for (int i = 1; i < 4; ++i) {
-      const double level_i = outflow_level(*corner[i]);
-      if (level_i < lowest) receiver = i, lowest = level_i;
-    }
     const double link = length[receiver];
     const double slope =
         std::min(kHangSteepest, def.min_drain_slope * std::pow(link / 1000.0, -kHangConcavity));
@@ -496,15 +499,6 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   }
   hi = std::min(hi, def.sea_level + def.max_mountain_altitude);
   m.ground = lo > hi ? lo : std::clamp(estimate, lo, hi);
-  // Drainage at every level: the new vertex drains along the edge to its lowest corner and
-  // stands above it by the drain rise at least, so it is not a pit now, and the drain split
-  // above keeps it from becoming one after any later split.
-  int receiver = 0;
-  double lowest = outflow_level(a);
-  for (int i = 1; i < 4; ++i) {
-    const double level_i = outflow_level(*corner[i]);
-    if (level_i < lowest) receiver = i, lowest = level_i;
-  }
   m.ground = std::max(m.ground, lowest + rules.drain_rise(length[receiver], rugged));
   *to[receiver] = EdgeType::drain;
   m.water = dry_water(m.water);
