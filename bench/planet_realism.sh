@@ -5,8 +5,8 @@
 # planet and on the same definition with two other seeds. Definitions: docs/analysis.md.
 # Then the land's hypsometry of the three planets.
 # Usage: bench/planet_realism.sh [BUILD_DIR]   (default build/release)
-# RELIEF_MODEL=drainage measures the same planets with that relief model (planet.md "Relief
-# models"); the default is each definition's own (displacement).
+# RELIEF_MODEL=displacement measures the same planets with that relief model (planet.md "Relief
+# models"); the default is each definition's own (drainage since generation 16).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build="${1:-build/release}"

@@ -45,6 +45,12 @@ Vec3d unit_or_zero(const Vec3d& v) {
   return n > 0.0 ? scale(v, 1.0 / n) : Vec3d{0, 0, 0};
 }
 
+// The drainage relief model (planet.md "Relief models"): of this many random river edges the
+// one into the lowest uplift grows first, and a base river stands this share of the highest
+// belt or plateau uplift on its way from the sea above its least-slope profile.
+constexpr int kLowlandFirstDraws = 32;
+constexpr double kRiverUpliftShare = 0.6;
+
 struct Edge {
   std::uint32_t u, v;
   std::int32_t face[2];  // tri indices
@@ -287,6 +293,21 @@ class Classifier {
     }
   }
 
+  // The next river edge to grow, at random. The drainage relief model draws a few and grows
+  // the one into the lowest uplift, so rivers fill the lowlands first and climb into the belts
+  // and plateaus from every side: their crests become divides, and little land drains to a
+  // river that crossed a belt (assign_altitudes lifts such a river to the belt's crest).
+  std::size_t pick_candidate() {
+    const auto draw = [&] { return random_.below(static_cast<std::uint32_t>(candidates_.size())); };
+    std::size_t best = draw();
+    if (def_.relief_model != ReliefModel::drainage) return best;
+    for (int k = 1; k < kLowlandFirstDraws; ++k) {
+      const std::size_t j = draw();
+      if (uplift_[candidates_[j].second] < uplift_[candidates_[best].second]) best = j;
+    }
+    return best;
+  }
+
   // §4.2: mouths from continental vertices next to a free coast vertex, in seeded order; then
   // river edges from the network to continental vertices in seeded order, avoiding a third
   // river into one vertex where another edge will do.
@@ -296,6 +317,10 @@ class Classifier {
     inflow_.assign(nv, 0);
     in_network_.assign(nv, false);
     mouth_.assign(nv, false);
+    uplift_.assign(nv, 0.0);
+    if (def_.relief_model == ReliefModel::drainage) {
+      for (std::uint32_t v = 0; v < nv; ++v) uplift_[v] = mesh_.rules.region(vertex(v).p).uplift;
+    }
     std::vector<std::uint32_t> order(nv);
     for (std::uint32_t v = 0; v < nv; ++v) order[v] = v;
     for (std::size_t i = nv; i > 1; --i) {
@@ -316,7 +341,7 @@ class Classifier {
         }
       }
       while (!candidates_.empty()) {
-        const std::size_t j = random_.below(static_cast<std::uint32_t>(candidates_.size()));
+        const std::size_t j = pick_candidate();
         auto [r, v] = candidates_[j];
         candidates_[j] = candidates_.back();
         candidates_.pop_back();
@@ -396,6 +421,7 @@ class Classifier {
     // A spring's target altitude grows with its river's length (§4.2), reaching a_max_river
     // for a river a quarter meridian long.
     const double full_length = radius * std::numbers::pi / 2.0;
+    std::vector<double> least_profile(nv, 0.0), path_uplift(nv, 0.0);
     for (std::uint32_t v : bfs) {
       Vertex& x = vertex(v);
       if (down_[v] < 0) {  // a mouth (a coast vertex), or an endorheic sink
@@ -421,10 +447,21 @@ class Classifier {
       // lowest of its neighbours, so its rivers climb at their least slope: raised towards a
       // far spring, a river would stand on a wall above land that hangs from a lower river
       // nearby (planet.md "Relief models").
-      const double towards_spring = 2.0 * random_.uniform() * (target - y.water) * share_here / le;
-      const double rise =
-          def_.relief_model == ReliefModel::drainage ? least : std::max(least, towards_spring);
-      x.water = std::max(std::min(y.water + le * rise, top), y.water + le * least);
+      if (def_.relief_model == ReliefModel::drainage) {
+        // Lifted by the belts and plateaus under it: the river stands kRiverUpliftShare of the
+        // highest uplift on its way from the sea above its least-slope profile, so it climbs
+        // where the uplift grows upstream and stays at a crest's level behind it.
+        least_profile[v] = least_profile[u] + le * least;
+        path_uplift[v] = std::max(path_uplift[u], uplift_[v]);
+        x.water =
+            std::max(std::min(sea + least_profile[v] + kRiverUpliftShare * path_uplift[v], top),
+                     y.water + le * least);
+      } else {
+        const double towards_spring =
+            2.0 * random_.uniform() * (target - y.water) * share_here / le;
+        x.water = std::max(std::min(y.water + le * std::max(least, towards_spring), top),
+                           y.water + le * least);
+      }
       x.ground = x.water - depth_for(v);
       mesh_.stats.longest_river = std::max(mesh_.stats.longest_river, longest[v]);
     }
@@ -537,6 +574,7 @@ class Classifier {
   std::vector<int> inflow_;
   std::vector<bool> in_network_, mouth_;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> candidates_;
+  std::vector<double> uplift_;  // the belts' and plateaus' uplift at each vertex (drainage model)
 };
 
 }  // namespace

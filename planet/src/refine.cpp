@@ -156,7 +156,7 @@ constexpr double kDrainMargin = 0.2;
 // headwaters on every link, and on the coarse links alone stood up as spikes and cliffs that the
 // finer vertices, hung from lower corners, did not follow (docs/analysis.md "The drainage relief
 // model"). Drains wind twice as far off their edge as land splits do.
-constexpr double kHangConcavity = 1.3;
+constexpr double kHangConcavity = 1.15;
 constexpr double kHangUpliftScale = 500.0;
 constexpr double kHangRuggedness = 0.5;
 constexpr double kHangSteepest = 0.1;

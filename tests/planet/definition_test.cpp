@@ -164,7 +164,7 @@ TEST(PlanetDefinition, FieldsAddedLaterAreInTheIdOnlyWhenTheyDifferFromTheDefaul
       {"shelf_depth", 130.0, 200.0},
       {"river_concavity", 0.5, 0.0},
       {"river_slope_area", 1e9, 1e10},
-      {"relief_model", "displacement", "drainage"},
+      {"relief_model", "drainage", "displacement"},
   };
   Result<PlanetDefinition> plain = parse_planet_text(R"({"seed": 7})");
   ASSERT_TRUE(plain.ok());

@@ -116,13 +116,13 @@ class DryLand : public ::testing::TestWithParam<ReliefModel> {
  protected:
   // One planet per relief model, built once for every test that asks.
   static const std::shared_ptr<const Planet>& planet() {
-    static const std::shared_ptr<const Planet> displacement =
-        Planet::create(test::default_definition());
-    static const std::shared_ptr<const Planet> drainage = [] {
+    static const std::shared_ptr<const Planet> displacement = [] {
       PlanetDefinition d = test::default_definition();
-      d.relief_model = ReliefModel::drainage;
+      d.relief_model = ReliefModel::displacement;
       return Planet::create(d);
     }();
+    static const std::shared_ptr<const Planet> drainage =
+        Planet::create(test::default_definition());
     return GetParam() == ReliefModel::drainage ? drainage : displacement;
   }
 

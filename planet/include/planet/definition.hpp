@@ -92,7 +92,7 @@ struct PlanetDefinition {
   /// The climate's share of dry land, 0 to 1: a lake whose climate is drier than 1 − aridity
   /// loses more water than it gains and is kept closed, below its rim, with no outflow.
   double aridity = 0.35;
-  ReliefModel relief_model = ReliefModel::displacement;
+  ReliefModel relief_model = ReliefModel::drainage;
   int base_faces = 5000;      ///< base shape accuracy; rounded to 8·2^k faces
   double finest_edge = 10.0;  ///< refinement stops at edges this short; detail noise goes on
   DetailParams detail;

@@ -42,8 +42,10 @@ namespace terrain {
 /// plains (land vertices carry their distance to the coast). 14: planets' base rivers have
 /// concave profiles by Flint's law (river_concavity, river_slope_area). 15: planets' river splits
 /// keep half of their offset from the edge's midpoint (fewer slivers beside rivers), and valley
-/// sides blend into their floors by a dryness that is C1 across every edge.
-inline constexpr int kProductGeneration = 15;
+/// sides blend into their floors by a dryness that is C1 across every edge. 16: planets take the
+/// drainage relief model unless they name another (every dry vertex hangs from the corner it
+/// drains to, rivers climb into the belts and plateaus they drain).
+inline constexpr int kProductGeneration = 16;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
