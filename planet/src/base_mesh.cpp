@@ -443,14 +443,14 @@ class Classifier {
       const double share_here = le * flint_weight(area[v]) / weighted[v];
       const double least =
           def_.min_river_slope * std::min(1.0, std::pow(area[v] / def_.river_slope_area, -theta));
-      // The drainage relief model hangs its land a few hundred metres at most above the
-      // lowest of its neighbours, so its rivers climb at their least slope: raised towards a
-      // far spring, a river would stand on a wall above land that hangs from a lower river
-      // nearby (planet.md "Relief models").
       if (def_.relief_model == ReliefModel::drainage) {
-        // Lifted by the belts and plateaus under it: the river stands kRiverUpliftShare of the
-        // highest uplift on its way from the sea above its least-slope profile, so it climbs
-        // where the uplift grows upstream and stays at a crest's level behind it.
+        // The drainage relief model hangs its land a few hundred metres at most above the
+        // lowest of its neighbours, so its rivers climb at their least slope, not towards a far
+        // spring: such a river would stand on a wall above land that hangs from a lower river
+        // nearby (planet.md "Relief models"). Only the belts and plateaus lift them: a river
+        // stands kRiverUpliftShare of the highest uplift on its way from the sea above its
+        // least-slope profile, so it climbs where the uplift grows upstream and keeps a crest's
+        // level behind it.
         least_profile[v] = least_profile[u] + le * least;
         path_uplift[v] = std::max(path_uplift[u], uplift_[v]);
         x.water =

@@ -25,9 +25,12 @@ TEST(ProductGoldens, TheDefaultPlanetMakesTheBytesOfItsGeneration) {
   // where the detail noise's octaves are drawn (the geographic grid), an open lake at zoom 6
   // (near 5° N 172° E, where its river leaves it), and the Web Mercator tiles MapLibre asks for.
   const std::pair<TileScheme, TileAddress> places[] = {
-      {TileScheme::geographic, {3, 9, 5}},     {TileScheme::geographic, {6, 70, 40}},
-      {TileScheme::geographic, {9, 600, 300}}, {TileScheme::geographic, {16, 1820, 34588}},
-      {TileScheme::geographic, {6, 125, 34}},  {TileScheme::webmercator, {5, 17, 11}},
+      {TileScheme::geographic, {3, 9, 5}},
+      {TileScheme::geographic, {6, 70, 40}},
+      {TileScheme::geographic, {9, 600, 300}},
+      {TileScheme::geographic, {16, 1820, 34588}},
+      {TileScheme::geographic, {6, 125, 34}},
+      {TileScheme::webmercator, {5, 17, 11}},
   };
   terrain::testing::ProductHashes made;
   const terrain::testing::InputHashes inputs{{"default", planet->id()}};
