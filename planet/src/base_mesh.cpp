@@ -45,11 +45,14 @@ Vec3d unit_or_zero(const Vec3d& v) {
   return n > 0.0 ? scale(v, 1.0 / n) : Vec3d{0, 0, 0};
 }
 
-// The drainage relief model (planet.md "Relief models"): of this many random river edges the
-// one into the lowest uplift grows first, and a base river stands this share of the highest
-// belt or plateau uplift on its way from the sea above its least-slope profile.
-constexpr int kLowlandFirstDraws = 32;
+// The drainage relief model (planet.md "Relief models"): a base river stands this share of the
+// highest belt or plateau uplift on its way from the sea above its least-slope profile; of this
+// many random river edges the one whose new vertex would stand lowest grows first; and a land
+// vertex beside the coast drains straight to it where joining the river it was drawn for would
+// stand it this many metres higher.
 constexpr double kRiverUpliftShare = 0.6;
+constexpr int kLowlandFirstDraws = 32;
+constexpr double kPerchedRiver = 300.0;
 
 struct Edge {
   std::uint32_t u, v;
@@ -286,6 +289,11 @@ class Classifier {
   void link(std::uint32_t v, std::uint32_t u, std::uint32_t edge) {
     down_[v] = static_cast<std::int32_t>(u);
     ++inflow_[u];
+    if (def_.relief_model == ReliefModel::drainage) {
+      path_lift_[v] = std::max(path_lift_[u], kRiverUpliftShare * uplift_[v]);
+      profile_[v] =
+          profile_[u] + headwater_slope_ * mesh_.rules.radius * angle(vertex(u).p, vertex(v).p);
+    }
     in_network_[v] = in_network_[u] = true;
     set_edge(edge, EdgeType::river);
     for (auto [x, e] : neighbours_[v]) {
@@ -293,17 +301,29 @@ class Classifier {
     }
   }
 
+  // The drainage model's estimate, while the network grows, of the level a land vertex v would
+  // stand at if it drained to u (a network vertex, or a coast vertex as a new mouth): the
+  // highest lift on its way from the sea and its profile at a headwater's least slope
+  // (assign_altitudes makes the levels themselves).
+  double level_through(std::uint32_t u, std::uint32_t v) const {
+    return std::max(path_lift_[u], kRiverUpliftShare * uplift_[v]) + profile_[u] +
+           headwater_slope_ * mesh_.rules.radius * angle(h_.vertices[u].p, h_.vertices[v].p);
+  }
+
   // The next river edge to grow, at random. The drainage relief model draws a few and grows
-  // the one into the lowest uplift, so rivers fill the lowlands first and climb into the belts
-  // and plateaus from every side: their crests become divides, and little land drains to a
-  // river that crossed a belt (assign_altitudes lifts such a river to the belt's crest).
+  // the one whose new vertex would stand lowest, so rivers fill the lowlands first and climb
+  // into the belts and plateaus from every side: their crests become divides, and little land
+  // drains to a river that crossed a belt (assign_altitudes lifts such a river to the belt's
+  // crest).
   std::size_t pick_candidate() {
     const auto draw = [&] { return random_.below(static_cast<std::uint32_t>(candidates_.size())); };
     std::size_t best = draw();
     if (def_.relief_model != ReliefModel::drainage) return best;
+    double lowest = level_through(candidates_[best].first, candidates_[best].second);
     for (int k = 1; k < kLowlandFirstDraws; ++k) {
       const std::size_t j = draw();
-      if (uplift_[candidates_[j].second] < uplift_[candidates_[best].second]) best = j;
+      const double level = level_through(candidates_[j].first, candidates_[j].second);
+      if (level < lowest) lowest = level, best = j;
     }
     return best;
   }
@@ -318,8 +338,16 @@ class Classifier {
     in_network_.assign(nv, false);
     mouth_.assign(nv, false);
     uplift_.assign(nv, 0.0);
+    path_lift_.assign(nv, 0.0);
+    profile_.assign(nv, 0.0);
     if (def_.relief_model == ReliefModel::drainage) {
       for (std::uint32_t v = 0; v < nv; ++v) uplift_[v] = mesh_.rules.region(vertex(v).p).uplift;
+      // A headwater drains one vertex's share of the sphere (assign_altitudes).
+      const double share =
+          kFourPi * mesh_.rules.radius * mesh_.rules.radius / static_cast<double>(nv);
+      headwater_slope_ =
+          def_.min_river_slope *
+          std::min(1.0, std::pow(share / def_.river_slope_area, -def_.river_concavity));
     }
     std::vector<std::uint32_t> order(nv);
     for (std::uint32_t v = 0; v < nv; ++v) order[v] = v;
@@ -358,6 +386,18 @@ class Classifier {
         std::uint32_t edge = 0;
         for (auto [x, e] : neighbours_[v]) {
           if (x == target) edge = e;
+        }
+        if (def_.relief_model == ReliefModel::drainage) {
+          // A river that reached v the long way round would stand above the land beside the
+          // coast, which hangs from the coast (refine.cpp), on a wall: v drains to the coast.
+          const double through_target = level_through(target, v);
+          for (auto [u, e] : neighbours_[v]) {
+            if (kind_[u] == kCoast && through_target - level_through(u, v) > kPerchedRiver) {
+              target = u, edge = e;
+              mouth_[u] = true;
+              break;
+            }
+          }
         }
         link(v, target, edge);
       }
@@ -574,7 +614,10 @@ class Classifier {
   std::vector<int> inflow_;
   std::vector<bool> in_network_, mouth_;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> candidates_;
-  std::vector<double> uplift_;  // the belts' and plateaus' uplift at each vertex (drainage model)
+  // The drainage model's: the belts' and plateaus' uplift at each vertex; the highest lift on a
+  // network vertex's way from the sea and its profile at the headwaters' least slope.
+  std::vector<double> uplift_, path_lift_, profile_;
+  double headwater_slope_ = 0.0;
 };
 
 }  // namespace

@@ -163,6 +163,18 @@ constexpr double kHangSteepest = 0.1;
 constexpr double kHangDrainOffset = 2.0;
 // A vertex beside a lake stands at least this share of its rise above the lake.
 constexpr double kHangAboveLake = 0.1;
+// A new arm's spring climbs this share of the uplift gained from the river it joins to it (as
+// the base rivers do by base_mesh.cpp's kRiverUpliftShare, a little less: more stood its
+// springs above the land hung beside them).
+constexpr double kArmUpliftShare = 0.45;
+
+// The drainage model's rise of a new vertex over the corner it drains to, l metres away.
+double hung_rise(const Rules& rules, double l, const Rules::Region& region) {
+  const double slope =
+      std::min(kHangSteepest, rules.def.min_drain_slope * std::pow(l / 1000.0, -kHangConcavity));
+  return slope * l * std::pow(region.ruggedness, kHangRuggedness) *
+         (1.0 + region.uplift / kHangUpliftScale);
+}
 // The slope ends this share of sea_depth down, on the ocean floor of the base mesh's sea.
 constexpr double kAbyssShare = 0.6;
 // A split under a lake deepens its floor by up to this slope times its edge: the coarse splits
@@ -400,7 +412,15 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       }
     }
     if (river >= 0) {
-      const double lower = corner[river]->water + length[river] * def.min_river_slope;
+      // The drainage model's springs climb as its land does, and with the uplift: at the river
+      // slope, an arm 100 km long stood 100 m above the land hung beside it on a wall.
+      const Vertex& joins = *corner[river];
+      double lower = joins.water + length[river] * def.min_river_slope;
+      if (hung) {
+        const Rules::Region here = rules.region(m.p, coast_distance(m));
+        lower = joins.water + hung_rise(rules, length[river], here) +
+                kArmUpliftShare * std::max(0.0, here.uplift - rules.region(joins.p).uplift);
+      }
       double upper = def.sea_level + def.max_river_altitude;
       for (int i = 0; i < 4; ++i) {
         if (wet(*corner[i])) continue;
@@ -411,8 +431,8 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       }
       if (lower < upper) {
         m.flags = kLand | kRiver;
-        // A spring: water = ground. The drainage model's springs rise no higher than their
-        // least slope allows, as its base rivers do (base_mesh.cpp), or they stand on walls.
+        // A spring: water = ground; the drainage model's at its least rise, or it stands on a
+        // wall above the land.
         m.ground = m.water = hung ? lower : lower + (upper - lower) * 0.25 * g1;
         m.tangent = tangent_at(m.p, sub(corner[river]->p, m.p));
         EdgeType* to[4] = {&r.half_a, &r.half_b, &r.spoke_t, &r.spoke_d};
@@ -438,14 +458,11 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
     if (level_i < lowest) receiver = i, lowest = level_i;
   }
   if (hung) {
-    const double link = length[receiver];
-    const double slope =
-        std::min(kHangSteepest, def.min_drain_slope * std::pow(link / 1000.0, -kHangConcavity));
-    m.ground = lowest + slope * link * std::pow(rugged, kHangRuggedness) *
-                            (1.0 + region.uplift / kHangUpliftScale);
+    const double rise = hung_rise(rules, length[receiver], region);
+    m.ground = lowest + rise;
     for (const Vertex* c : corner) {
       if ((c->flags & kLake) != 0) {
-        m.ground = std::max(m.ground, outflow_level(*c) + kHangAboveLake * slope * link);
+        m.ground = std::max(m.ground, outflow_level(*c) + kHangAboveLake * rise);
       }
     }
     *to[receiver] = EdgeType::drain;

@@ -156,7 +156,7 @@ TEST(PlanetHypsometry, FollowsTheRiversAltitudes) {
 
 TEST(PlanetHypsometry, FollowsTheBeltsAndPlateausUnderTheDrainageModel) {
   // The drainage model's rivers climb with the belts' and plateaus' uplift: at half of it, the
-  // land stands lower (the median by 158 m, measured).
+  // land stands lower (the median by 135 m, measured).
   PlanetDefinition low = test::default_definition();
   low.belt_height /= 2.0;
   low.plateau_height /= 2.0;

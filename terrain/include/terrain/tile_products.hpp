@@ -44,8 +44,11 @@ namespace terrain {
 /// keep half of their offset from the edge's midpoint (fewer slivers beside rivers), and valley
 /// sides blend into their floors by a dryness that is C1 across every edge. 16: planets take the
 /// drainage relief model unless they name another (every dry vertex hangs from the corner it
-/// drains to, rivers climb into the belts and plateaus they drain).
-inline constexpr int kProductGeneration = 16;
+/// drains to, rivers climb into the belts and plateaus they drain). 17: the drainage model's
+/// network grows where its rivers would stand lowest, land beside the coast drains to it rather
+/// than to a river that would stand hundreds of metres higher, and new arms climb as the land
+/// hung beside them does (fewer rivers on walls).
+inline constexpr int kProductGeneration = 17;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
