@@ -198,8 +198,8 @@ TEST(DrainageModel, RiversRunInValleysNotOnWalls) {
       }
     }
     ASSERT_GT(land, n * n / 2) << square.seed;
-    EXPECT_LT(walls, land / 500) << "seed " << square.seed << ": " << walls << " steps of "
-                                 << land << " land samples";
+    EXPECT_LT(walls, land / 500) << "seed " << square.seed << ": " << walls << " steps of " << land
+                                 << " land samples";
   }
 }
 
