@@ -461,7 +461,7 @@ class Classifier {
     // A spring's target altitude grows with its river's length (§4.2), reaching a_max_river
     // for a river a quarter meridian long.
     const double full_length = radius * std::numbers::pi / 2.0;
-    std::vector<double> least_profile(nv, 0.0), path_uplift(nv, 0.0);
+    std::vector<double> least_profile(nv, 0.0);
     for (std::uint32_t v : bfs) {
       Vertex& x = vertex(v);
       if (down_[v] < 0) {  // a mouth (a coast vertex), or an endorheic sink
@@ -488,14 +488,11 @@ class Classifier {
         // lowest of its neighbours, so its rivers climb at their least slope, not towards a far
         // spring: such a river would stand on a wall above land that hangs from a lower river
         // nearby (planet.md "Relief models"). Only the belts and plateaus lift them: a river
-        // stands kRiverUpliftShare of the highest uplift on its way from the sea above its
-        // least-slope profile, so it climbs where the uplift grows upstream and keeps a crest's
-        // level behind it.
+        // stands the highest lift on its way from the sea (link) above its least-slope profile,
+        // so it climbs where the uplift grows upstream and keeps a crest's level behind it.
         least_profile[v] = least_profile[u] + le * least;
-        path_uplift[v] = std::max(path_uplift[u], uplift_[v]);
         x.water =
-            std::max(std::min(sea + least_profile[v] + kRiverUpliftShare * path_uplift[v], top),
-                     y.water + le * least);
+            std::max(std::min(sea + least_profile[v] + path_lift_[v], top), y.water + le * least);
       } else {
         const double towards_spring =
             2.0 * random_.uniform() * (target - y.water) * share_here / le;

@@ -167,6 +167,11 @@ constexpr double kHangAboveLake = 0.1;
 // the base rivers do by base_mesh.cpp's kRiverUpliftShare, a little less: more stood its
 // springs above the land hung beside them).
 constexpr double kArmUpliftShare = 0.45;
+// The slope ends this share of sea_depth down, on the ocean floor of the base mesh's sea.
+constexpr double kAbyssShare = 0.6;
+// A split under a lake deepens its floor by up to this slope times its edge: the coarse splits
+// make the basin (up to about 300 m under a default planet's lakes), the fine ones its relief.
+constexpr double kLakeFloorSlope = 0.002;
 
 // The drainage model's rise of a new vertex over the corner it drains to, l metres away.
 double hung_rise(const Rules& rules, double l, const Rules::Region& region) {
@@ -175,11 +180,6 @@ double hung_rise(const Rules& rules, double l, const Rules::Region& region) {
   return slope * l * std::pow(region.ruggedness, kHangRuggedness) *
          (1.0 + region.uplift / kHangUpliftScale);
 }
-// The slope ends this share of sea_depth down, on the ocean floor of the base mesh's sea.
-constexpr double kAbyssShare = 0.6;
-// A split under a lake deepens its floor by up to this slope times its edge: the coarse splits
-// make the basin (up to about 300 m under a default planet's lakes), the fine ones its relief.
-constexpr double kLakeFloorSlope = 0.002;
 
 // Unit vector in the tangent plane at p closest to direction v (zero if v is radial).
 std::array<float, 3> tangent_at(const Vec3d& p, const Vec3d& v) {
