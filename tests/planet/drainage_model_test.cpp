@@ -20,13 +20,9 @@ namespace {
 
 using terrain::TileAddress;
 
+// The default planet, whose relief model is the drainage model since generation 16.
 const std::shared_ptr<const Planet>& drainage_planet() {
-  static const std::shared_ptr<const Planet> planet = [] {
-    PlanetDefinition d = test::default_definition();
-    d.relief_model = ReliefModel::drainage;
-    return Planet::create(d);
-  }();
-  return planet;
+  return test::default_planet();
 }
 
 // A rows × cols grid around (lat, lon), `step` degrees apart, laid out as tiles lay theirs out:
