@@ -11,6 +11,10 @@ function(terrain_set_project_options target)
     # Nothing reads errno after maths calls; without this GCC keeps a scalar call path around
     # every sqrt, which stops loops over points from vectorising. Results are unchanged.
     -fno-math-errno
+    # Nothing reads the floating-point exception flags either; with them GCC will not compute
+    # both sides of a select, so branch-free loops (drawing a drainage floor along a row of
+    # samples) stay scalar. Values are unchanged: no reassociation, no contraction.
+    -fno-trapping-math
     # GCC 12 at -O3 reports impossible std::string overlaps (GCC bug 105329): a false positive.
     $<$<CXX_COMPILER_ID:GNU>:-Wno-restrict>
     # Clang's -Wconversion also warns on signedness, which GCC's (the reference) does not; the

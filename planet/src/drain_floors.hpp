@@ -27,8 +27,6 @@ struct FloorShape {
   /// Where the ground meets a floor it is eased onto it over the floor's rise across this
   /// many metres (so that the surface keeps its slope there: C1).
   double ease = 0.0;
-  /// (`reach` in unit-sphere chords)², a little more.
-  double reach_chord2 = 0.0;
   double half_over_reach = 0.0;  ///< 1 / (2·reach)
   double over_fade = 0.0;        ///< 1 / (reach − full)
   /// `reach` in unit-sphere chords.
@@ -44,7 +42,6 @@ inline FloorShape floor_shape(const Rules& rules, int level) {
   shape.full = 0.5 * shape.reach;
   shape.ease = 0.5 * sample;
   shape.radius = rules.radius;
-  shape.reach_chord2 = shape.reach_chord() * shape.reach_chord() * (1.0 + 1e-9);
   shape.half_over_reach = 0.5 / shape.reach;
   shape.over_fade = 1.0 / (shape.reach - shape.full);
   return shape;
@@ -83,29 +80,25 @@ inline DrainSegment drain_segment(const Vertex& u, const Vertex& v, const FloorS
 }
 
 /// The ground at p once the floor of drain `e` has lowered it (`ground` itself out of reach or
-/// where the floor stands higher).
+/// where the floor stands higher). Every quantity is computed and the result selected, without
+/// branches, so that a grid's rows of points vectorise (Sampler::draw_floors): the value is the
+/// same either way, and a branch per point mispredicted often enough to double its cost.
 inline double lowered(double ground, const DrainSegment& e, const Vec3d& p,
                       const FloorShape& shape) {
   const Vec3d ap = sub(p, e.a);
-  const double f = std::clamp(dot(ap, e.ab) * e.inverse_length2, 0.0, 1.0);
+  const double f = clamp01(dot(ap, e.ab) * e.inverse_length2);
   const Vec3d off = sub(ap, scale(e.ab, f));
-  const double off2 = dot(off, off);
-  // Most points a grid tries are out of reach: known without the root (with room for its
-  // rounding, so that the test below still decides).
-  if (off2 > shape.reach_chord2) return ground;
-  // The floor stands on its axis and climbs away from it: nothing to lower below the axis.
-  const double axis = e.ground + f * e.drop;
-  if (!(axis < ground)) return ground;
-  const double d = std::sqrt(off2) * shape.radius;
-  if (!(d < shape.reach)) return ground;
-  const double floor = axis + e.cross * (d * d * shape.half_over_reach);
+  const double d = std::sqrt(dot(off, off)) * shape.radius;
+  // The floor stands on its axis and climbs away from it, fading out towards the reach.
+  const double floor = e.ground + f * e.drop + e.cross * (d * d * shape.half_over_reach);
   const double above = ground - floor;
-  if (!(above > 0.0)) return ground;
-  const double weight =
-      d <= shape.full ? 1.0 : 1.0 - smoothstep((d - shape.full) * shape.over_fade);
+  const double fade = 1.0 - smoothstep((d - shape.full) * shape.over_fade);
+  const double weight = d <= shape.full ? 1.0 : fade;
   // Lowered by `above` less half the ease, eased in quadratically where the floor is near.
-  const double lowering = above < e.ease ? above * above * e.half_over_ease : above - 0.5 * e.ease;
-  return ground - weight * lowering;
+  const double eased = above * above * e.half_over_ease;
+  const double lowering = above < e.ease ? eased : above - 0.5 * e.ease;
+  // Below the floor (so above its axis, too) and within reach.
+  return d < shape.reach && above > 0.0 ? ground - weight * lowering : ground;
 }
 
 /// Metres from p to the chord of edge (u, v), for deciding where a walk goes: the walk crosses

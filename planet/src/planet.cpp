@@ -196,18 +196,23 @@ PointSample Sampler::at(const Vec3d& p, int level, double octaves, const Descent
 
 double Sampler::land_ground(std::int32_t t, const std::array<const Vertex*, 3>& corner,
                             const std::array<double, 3>& w) {
-  if (leaf_ground_tri_ != t || leaf_ground_generation_ != generation_) {  // t ≥ 0
+  // A power of two: the slot is the index's low bits. 64 holds a 16-sample block's rows of
+  // leaves at every zoom.
+  constexpr std::size_t kSlots = 64;
+  if (leaf_surfaces_.empty()) leaf_surfaces_.resize(kSlots);
+  LeafSurface& leaf = leaf_surfaces_[static_cast<std::size_t>(t) % kSlots];  // t ≥ 0
+  if (leaf.tri != t || leaf.generation != generation_) {
     const double radius = planet_->definition().radius;
     if (all_dry(corner)) {
-      leaf_cubic_.emplace(corner, radius);
-      leaf_floor_.reset();
+      leaf.cubic.emplace(corner, radius);
+      leaf.floor.reset();
     } else {
-      leaf_floor_.emplace(corner, radius);
+      leaf.floor.emplace(corner, radius);
     }
-    leaf_ground_tri_ = t;
-    leaf_ground_generation_ = generation_;
+    leaf.tri = t;
+    leaf.generation = generation_;
   }
-  return leaf_floor_ ? (*leaf_floor_)(w) : (*leaf_cubic_)(w);
+  return leaf.floor ? (*leaf.floor)(w) : (*leaf.cubic)(w);
 }
 
 PointSample Sampler::at_from_root(const Vec3d& p, int level, double octaves) {

@@ -38,13 +38,11 @@ struct GridBounds {
   }
 };
 
-GridBounds grid_bounds(const SampleGrid& grid, std::span<const Vec3d> directions, double reach) {
+GridBounds grid_bounds(const SampleGrid& grid, std::span<const double> row_z, double reach) {
   GridBounds bounds;
   bounds.reach = reach;
   double z_lo = 2.0, z_hi = -2.0;
-  for (int r = 0; r < grid.rows; ++r) {
-    const double z =
-        directions[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols)][2];
+  for (const double z : row_z) {
     z_lo = std::min(z_lo, z);
     z_hi = std::max(z_hi, z);
   }
@@ -71,6 +69,37 @@ int first_where_not(int lo, int hi, const Predicate& holds) {
     }
   }
   return lo;
+}
+
+// The same, searched outwards from `guess` in steps that double before bisecting: the drain
+// edges are drawn in the order their triangles were reached, each near the last, so a search
+// from the last one's answer takes two or three steps where a bisection of a row takes eight.
+template <typename Predicate>
+int first_where_not_from(int guess, int lo, int hi, const Predicate& holds) {
+  guess = std::clamp(guess, lo, hi);
+  int left = lo, right = hi;  // the answer lies in [left, right]
+  if (guess < hi && holds(guess)) {
+    left = guess + 1;
+    for (int step = 1; left + step <= hi; step *= 2) {
+      const int probe = left + step - 1;
+      if (!holds(probe)) {
+        right = probe;
+        break;
+      }
+      left = probe + 1;
+    }
+  } else {
+    right = guess;
+    for (int step = 1; right - step >= lo; step *= 2) {
+      const int probe = right - step;
+      if (holds(probe)) {
+        left = probe + 1;
+        break;
+      }
+      right = probe;
+    }
+  }
+  return first_where_not(left, right, holds);
 }
 
 // The columns whose longitude lies in [lo, hi] (increasing with the column): [first, end).
@@ -176,18 +205,31 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
   const floors::FloorShape shape = floors::floor_shape(planet_->rules(), level);
   // A little beyond the reach, so that rounding never leaves out an edge a walk would take.
   const double reach = shape.reach_chord() * (1.0 + 1e-6);
-  // The grounds before and after, packed (the samples' records are ten times larger); NaN off
-  // land, which no floor lowers.
-  ground_.resize(count);
-  direction_.resize(count);
+  // The grounds before and after and the directions, packed in grid order, one array per
+  // coordinate, so that drawing a floor along a row vectorises (the samples' records are ten
+  // times larger); NaN off land, which no floor lowers. Rows are drawn kLanes samples at a time,
+  // which needs no remainder loop: a sample beyond the columns within reach (the next ones of
+  // the row, or of the next row, or the padding) is out of reach of the edge or within it, and
+  // either way lowering it again changes nothing.
+  constexpr std::size_t kLanes = 4;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  ground_.assign(count + kLanes, nan);
+  for (std::vector<double>& axis : direction_) axis.assign(count + kLanes, 0.0);
   for (std::size_t k = 0; k < count; ++k) {
-    direction_[order_[k]] = pending_directions_[k];
-    ground_[order_[k]] = pending_[k].face == FaceType::land
-                             ? pending_[k].out.ground
-                             : std::numeric_limits<double>::quiet_NaN();
+    const std::size_t i = order_[k];
+    for (std::size_t j = 0; j < 3; ++j) direction_[j][i] = pending_directions_[k][j];
+    if (pending_[k].face == FaceType::land) ground_[i] = pending_[k].out.ground;
   }
   floor_ = ground_;
-  const GridBounds bounds = grid_bounds(grid, direction_, reach);
+  // Rows by z: a sample within reach of a point of the chord differs from it in z by the reach
+  // at most, and the chord's z lies between its ends'. Rows' z falls with the row.
+  std::vector<double>& row_z = row_z_;
+  row_z.resize(static_cast<std::size_t>(grid.rows));
+  for (int r = 0; r < grid.rows; ++r) {
+    row_z[static_cast<std::size_t>(r)] =
+        direction_[2][static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols)];
+  }
+  const GridBounds bounds = grid_bounds(grid, row_z, reach);
 
   // The triangles of the level within reach of a sample: from the samples' leaves across every
   // edge near the grid. A walk from a sample crosses only edges within reach of it, which are
@@ -227,31 +269,37 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
 
   // Each drain edge once (from the lower-numbered of its two triangles), onto the samples of the
   // rows and columns within reach of it.
+  // A NaN ground (off land) stays NaN: lowered() compares it false and returns it.
+  const double* const px = direction_[0].data();
+  const double* const py = direction_[1].data();
+  const double* const pz = direction_[2].data();
+  const double* const ground = ground_.data();
+  double* const lowest = floor_.data();
   const auto draw = [&](const floors::DrainSegment& segment, int r_first, int r_end, int c_first,
                         int c_end) {
     for (int r = r_first; r < r_end; ++r) {
-      for (int c = c_first; c < c_end; ++c) {
-        const std::size_t i = static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols) +
-                              static_cast<std::size_t>(c);
-        if (std::isnan(ground_[i])) continue;
-        floor_[i] = std::min(floor_[i], floors::lowered(ground_[i], segment, direction_[i], shape));
+      const std::size_t row = static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols);
+      const std::size_t end = row + static_cast<std::size_t>(c_end);
+      for (std::size_t i = row + static_cast<std::size_t>(c_first); i < end; i += kLanes) {
+        std::array<double, kLanes> lowered{};
+        for (std::size_t j = 0; j < kLanes; ++j) {
+          lowered[j] =
+              floors::lowered(ground[i + j], segment, {px[i + j], py[i + j], pz[i + j]}, shape);
+        }
+        for (std::size_t j = 0; j < kLanes; ++j) {
+          lowest[i + j] = std::min(lowest[i + j], lowered[j]);
+        }
       }
     }
   };
-  // Rows by z: a sample within reach of a point of the chord differs from it in z by the reach
-  // at most, and the chord's z lies between its ends'. Rows' z falls with the row.
-  std::vector<double>& row_z = row_z_;
-  row_z.resize(static_cast<std::size_t>(grid.rows));
-  for (int r = 0; r < grid.rows; ++r) {
-    row_z[static_cast<std::size_t>(r)] =
-        direction_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols)][2];
-  }
   const Geodesy& geodesy = planet_->geodesy();
   const double flattening = planet_->definition().flattening;
   const double west = grid.longitude.front(), east = grid.longitude.back();
   // A meridian's plane holds its column's samples (to rounding), so a sample within reach of a
   // point of the chord has that point within the reach of its column's plane.
   const double slab = reach + 1e-15;
+  // The last edge's rows and columns, where the next one's are looked for first.
+  int r_first = 0, r_end = 0, c_first = 0, c_end = 0;
   for (const std::int32_t u : reached_) {
     const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(u)];
     for (std::size_t k = 0; k < 3; ++k) {
@@ -263,12 +311,11 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
       if (!bounds.near(a.p, b.p)) continue;
       const floors::DrainSegment segment = floors::drain_segment(a, b, shape);
       const double z_lo = std::min(a.p[2], b.p[2]) - slab, z_hi = std::max(a.p[2], b.p[2]) + slab;
-      const int r_first = static_cast<int>(
-          std::partition_point(row_z.begin(), row_z.end(), [&](double z) { return z > z_hi; }) -
-          row_z.begin());
-      const int r_end = static_cast<int>(std::partition_point(row_z.begin() + r_first, row_z.end(),
-                                                              [&](double z) { return z >= z_lo; }) -
-                                         row_z.begin());
+      r_first = first_where_not_from(
+          r_first, 0, grid.rows, [&](int r) { return row_z[static_cast<std::size_t>(r)] > z_hi; });
+      r_end = first_where_not_from(r_end, r_first, grid.rows, [&](int r) {
+        return row_z[static_cast<std::size_t>(r)] >= z_lo;
+      });
       if (r_first >= r_end) continue;
       if (bounds.meridians) {
         // The plane of column c: (−sin λ_c, cos λ_c, 0)·q falls as c goes east while the grid
@@ -276,15 +323,15 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
         const auto across_meridian = [&](std::size_t c, const Vec3d& q) {
           return -q[0] * grid.sin_lon[c] + q[1] * grid.cos_lon[c];
         };
-        const int first = first_where_not(0, grid.cols, [&](int c) {
+        c_first = first_where_not_from(c_first, 0, grid.cols, [&](int c) {
           const auto column = static_cast<std::size_t>(c);
           return std::min(across_meridian(column, a.p), across_meridian(column, b.p)) > slab;
         });
-        const int end = first_where_not(first, grid.cols, [&](int c) {
+        c_end = first_where_not_from(c_end, c_first, grid.cols, [&](int c) {
           const auto column = static_cast<std::size_t>(c);
           return std::max(across_meridian(column, a.p), across_meridian(column, b.p)) >= -slab;
         });
-        draw(segment, r_first, r_end, first, end);
+        draw(segment, r_first, r_end, c_first, c_end);
         continue;
       }
       // A grid a sixth of a turn wide or more (zooms 0 and 1): columns by longitude. Degrees within
@@ -305,8 +352,8 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
         const double lon_lo = std::min(lon_a, lon_b) + turn - widen;
         const double lon_hi = std::max(lon_a, lon_b) + turn + widen;
         if (lon_hi < west || lon_lo > east) continue;
-        const auto [c_first, c_end] = columns_between(grid.longitude, lon_lo, lon_hi);
-        draw(segment, r_first, r_end, c_first, c_end);
+        const auto [first, end] = columns_between(grid.longitude, lon_lo, lon_hi);
+        draw(segment, r_first, r_end, first, end);
       }
     }
   }

@@ -83,9 +83,16 @@ inline bool wet(const Vertex& v) {
   return (v.flags & (kRiver | kCoast | kSea | kLake)) != 0 || v.water > v.ground;
 }
 
+/// std::clamp(x, 0.0, 1.0), the same for every x (NaN and −0 included), written as the max and
+/// min that compilers turn into single instructions; std::clamp's form became masks and blends
+/// in vectorised loops (drawing the drainage floors).
+inline double clamp01(double x) {
+  return std::min(std::max(x, 0.0), 1.0);
+}
+
 /// 3x² − 2x³ of x clamped to [0, 1]: rises from 0 to 1 with no slope at either end.
 inline double smoothstep(double x) {
-  x = std::clamp(x, 0.0, 1.0);
+  x = clamp01(x);
   return x * x * (3.0 - 2.0 * x);
 }
 

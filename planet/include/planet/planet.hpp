@@ -245,18 +245,24 @@ class Sampler {
   std::vector<std::int32_t> reached_;      ///< draw_floors(): the triangles within reach
   std::vector<std::uint32_t> marks_;       ///< draw_floors(): == mark_ for a triangle in reached_
   std::uint32_t mark_ = 0;
-  std::vector<double> ground_;    ///< draw_floors(): each sample's ground, NaN off land
-  std::vector<Vec3d> direction_;  ///< draw_floors(): each sample's direction
-  std::vector<double> row_z_;     ///< draw_floors(): each row's z
-  std::vector<double> floor_;     ///< draw_floors(): each sample's lowest floor so far
+  std::vector<double> ground_;  ///< draw_floors(): each sample's ground, NaN off land
+  std::array<std::vector<double>, 3> direction_;  ///< draw_floors(): each sample's direction
+  std::vector<double> row_z_;                     ///< draw_floors(): each row's z
+  std::vector<double> floor_;  ///< draw_floors(): each sample's lowest floor so far
   std::vector<Vec3d> detailed_;
   std::vector<double> detail_;
-  /// The surface of land triangle leaf_ground_tri_, this generation's (land_ground): its valley
-  /// floor where it has one, else its cubic.
-  std::optional<CloughTocher> leaf_cubic_;
-  std::optional<ValleyFloor> leaf_floor_;
-  std::int32_t leaf_ground_tri_ = -1;
-  std::uint64_t leaf_ground_generation_ = 0;
+  /// The surface of a land leaf, this generation's (land_ground): its valley floor where it has
+  /// one, else its cubic.
+  struct LeafSurface {
+    std::int32_t tri = -1;
+    std::uint64_t generation = 0;
+    std::optional<CloughTocher> cubic;
+    std::optional<ValleyFloor> floor;
+  };
+  /// The surfaces of recent land leaves, by triangle index modulo their number: a tile's rows
+  /// cross each leaf two or three times, and making a leaf's surface costs three evaluations
+  /// of it.
+  std::vector<LeafSurface> leaf_surfaces_;
   /// Steps across leaf edges before a point is looked for down the path instead.
   static constexpr int kWalkSteps = 4;
 };
