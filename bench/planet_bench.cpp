@@ -118,6 +118,29 @@ void BM_PlanetTileRefined(benchmark::State& state) {
 }
 BENCHMARK(BM_PlanetTileRefined)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond);
 
+// A server's thread keeps its PlanetTiles, so while a user pans, each new tile finds the
+// refinement of the tiles beside it made: each iteration makes the next tile east along the row
+// (the sampler trims itself back to the base mesh now and then, as in a server). What a tile not
+// in the product cache costs in the steady state.
+void BM_PlanetTilePanning(benchmark::State& state) {
+  const int z = static_cast<int>(state.range(0));
+  const std::int64_t columns = std::int64_t{2} << z;
+  const auto y = static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z));
+  std::int64_t x = static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z));
+  PlanetTiles tiles(default_planet());
+  (void)tiles.make({z, x, y}, terrain::TileFormat::terrain_rgb);
+  for (auto _ : state) {
+    x = (x + 1) % columns;
+    Result<terrain::Product> p = tiles.make({z, x, y}, terrain::TileFormat::terrain_rgb);
+    if (!p) {
+      state.SkipWithError(p.error().message.c_str());
+      return;
+    }
+    benchmark::DoNotOptimize(p->bytes.data());
+  }
+}
+BENCHMARK(BM_PlanetTilePanning)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond);
+
 // The same two with the displacement relief model, which draws no floors along the drains.
 void BM_PlanetTileDisplacement(benchmark::State& state) {
   run_planet_tile(state, terrain::TileFormat::terrain_rgb, displacement_planet());

@@ -160,13 +160,15 @@ Sampler::Sampler(std::shared_ptr<const Planet> planet) : planet_(std::move(plane
 void Sampler::trim() {
   // Room for a tile's refinement (about 45 000 triangles and 11 000 vertices at zoom 10) beyond
   // the base mesh, so the first tiles do not copy the hierarchy as it grows; the pages are only
-  // touched as triangles are made.
+  // touched as triangles are made. A trim keeps what the vectors have grown to: their pages stay
+  // mapped, and the tiles after it neither copy the hierarchy nor fault fresh pages in (a tenth
+  // of a tile's time while panning). trim_when_large bounds that memory either way.
   const Hierarchy& base = planet_->base_mesh().hierarchy;
-  hierarchy_ = Hierarchy(base.rules());
+  if (hierarchy_.rules() != base.rules()) hierarchy_ = Hierarchy(base.rules());
   hierarchy_.tris.reserve(base.tris.size() + (std::size_t{1} << 17));
   hierarchy_.vertices.reserve(base.vertices.size() + (std::size_t{1} << 15));
-  hierarchy_.tris = base.tris;
-  hierarchy_.vertices = base.vertices;
+  hierarchy_.tris.assign(base.tris.begin(), base.tris.end());
+  hierarchy_.vertices.assign(base.vertices.begin(), base.vertices.end());
   ++generation_;
 }
 

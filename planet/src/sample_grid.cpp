@@ -127,6 +127,16 @@ void Sampler::grid(const SampleGrid& grid, int level, double octaves, const Grid
   order_.clear();
   leaves_.clear();
   pending_directions_.clear();
+  if (floors) {
+    // Every sample waits: room for all at once, or a fresh sampler copies them as they grow
+    // (and touches twice the pages).
+    const std::size_t count =
+        static_cast<std::size_t>(grid.rows) * static_cast<std::size_t>(grid.cols);
+    pending_.reserve(count);
+    order_.reserve(count);
+    leaves_.reserve(count);
+    pending_directions_.reserve(count);
+  }
   const Geodesy& geodesy = planet_->geodesy();
   const auto direction = [&](int r, int c) {
     const auto ur = static_cast<std::size_t>(r), uc = static_cast<std::size_t>(c);
