@@ -11,11 +11,15 @@
 
 #include "drain_floors.hpp"
 #include "planet/planet.hpp"
+#include "terrain/simd.hpp"
 
 namespace planet {
 namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
+
+// Samples a floor is drawn onto at a time (draw_floor).
+constexpr std::size_t kLanes = 4;
 
 // Which part of the sphere a grid covers, widened by a floor's reach: every chord within reach
 // of a sample has an end on the inner side of each bound (a chord with both ends beyond one is
@@ -107,6 +111,43 @@ std::pair<int, int> columns_between(std::span<const double> longitude, double lo
   const auto first = std::lower_bound(longitude.begin(), longitude.end(), lo);
   const auto end = std::upper_bound(first, longitude.end(), hi);
   return {static_cast<int>(first - longitude.begin()), static_cast<int>(end - longitude.begin())};
+}
+
+// Samples a row apart, packed for drawing floors (Sampler::draw_floors): one array per
+// coordinate, the ground before (NaN off land) and the lowest floor so far, each padded by
+// kLanes values beyond the last sample.
+struct FloorSamples {
+  const double* x;
+  const double* y;
+  const double* z;
+  const double* ground;
+  double* lowest;
+  std::size_t cols;
+};
+
+// The floor of one drain edge drawn onto the samples of rows [r_first, r_end) and columns
+// [c_first, c_end), kLanes samples at a time: a sample beyond those columns (the next ones of the
+// row, or of the next row, or the padding) is out of reach of the edge or within it, and either
+// way lowering it again changes nothing, so no remainder loop is needed. A NaN ground (off land)
+// stays NaN: lowered() compares it false and returns it. Cloned for AVX-512 and AVX2 (the same
+// numbers: no contraction, and a select returns one of its operands).
+TERRAIN_SIMD_CLONES void draw_floor(const floors::DrainSegment& segment,
+                                    const floors::FloorShape& shape, const FloorSamples& samples,
+                                    int r_first, int r_end, int c_first, int c_end) {
+  for (int r = r_first; r < r_end; ++r) {
+    const std::size_t row = static_cast<std::size_t>(r) * samples.cols;
+    const std::size_t end = row + static_cast<std::size_t>(c_end);
+    for (std::size_t i = row + static_cast<std::size_t>(c_first); i < end; i += kLanes) {
+      std::array<double, kLanes> lowered{};
+      for (std::size_t j = 0; j < kLanes; ++j) {
+        lowered[j] = floors::lowered(samples.ground[i + j], segment,
+                                     {samples.x[i + j], samples.y[i + j], samples.z[i + j]}, shape);
+      }
+      for (std::size_t j = 0; j < kLanes; ++j) {
+        samples.lowest[i + j] = std::min(samples.lowest[i + j], lowered[j]);
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -217,11 +258,7 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
   const double reach = shape.reach_chord() * (1.0 + 1e-6);
   // The grounds before and after and the directions, packed in grid order, one array per
   // coordinate, so that drawing a floor along a row vectorises (the samples' records are ten
-  // times larger); NaN off land, which no floor lowers. Rows are drawn kLanes samples at a time,
-  // which needs no remainder loop: a sample beyond the columns within reach (the next ones of
-  // the row, or of the next row, or the padding) is out of reach of the edge or within it, and
-  // either way lowering it again changes nothing.
-  constexpr std::size_t kLanes = 4;
+  // times larger); NaN off land, which no floor lowers; padded for draw_floor.
   const double nan = std::numeric_limits<double>::quiet_NaN();
   ground_.assign(count + kLanes, nan);
   for (std::vector<double>& axis : direction_) axis.assign(count + kLanes, 0.0);
@@ -279,28 +316,12 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
 
   // Each drain edge once (from the lower-numbered of its two triangles), onto the samples of the
   // rows and columns within reach of it.
-  // A NaN ground (off land) stays NaN: lowered() compares it false and returns it.
-  const double* const px = direction_[0].data();
-  const double* const py = direction_[1].data();
-  const double* const pz = direction_[2].data();
-  const double* const ground = ground_.data();
-  double* const lowest = floor_.data();
+  const FloorSamples samples{direction_[0].data(), direction_[1].data(),
+                             direction_[2].data(), ground_.data(),
+                             floor_.data(),        static_cast<std::size_t>(grid.cols)};
   const auto draw = [&](const floors::DrainSegment& segment, int r_first, int r_end, int c_first,
                         int c_end) {
-    for (int r = r_first; r < r_end; ++r) {
-      const std::size_t row = static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols);
-      const std::size_t end = row + static_cast<std::size_t>(c_end);
-      for (std::size_t i = row + static_cast<std::size_t>(c_first); i < end; i += kLanes) {
-        std::array<double, kLanes> lowered{};
-        for (std::size_t j = 0; j < kLanes; ++j) {
-          lowered[j] =
-              floors::lowered(ground[i + j], segment, {px[i + j], py[i + j], pz[i + j]}, shape);
-        }
-        for (std::size_t j = 0; j < kLanes; ++j) {
-          lowest[i + j] = std::min(lowest[i + j], lowered[j]);
-        }
-      }
-    }
+    draw_floor(segment, shape, samples, r_first, r_end, c_first, c_end);
   };
   const Geodesy& geodesy = planet_->geodesy();
   const double flattening = planet_->definition().flattening;

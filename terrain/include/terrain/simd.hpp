@@ -1,9 +1,11 @@
 // Helpers for the loops over a block of points that GCC vectorises (noise, node kernels, blend
-// accumulation, the planet's detail noise): clones for AVX-512, AVX2 and the baseline chosen at
-// run time, and branch-free selects on float bit patterns. Under the default -ftrapping-math GCC will not if-convert a
-// float `c ? a : b` whose operands need arithmetic (it keeps them behind branches, and the loop
-// stays scalar); a select on the bits vectorises. A select returns one of its operands bit for
-// bit and the project builds with -ffp-contract=off, so every clone computes the same numbers.
+// accumulation, the planet's detail noise and drainage floors): clones for AVX-512, AVX2 and the
+// baseline chosen at run time, and branch-free selects on float bit patterns. Under GCC's default
+// -ftrapping-math a float `c ? a : b` whose operands need arithmetic stays behind branches and
+// the loop scalar, which the selects on bits avoided; since 2026-12-06 the project builds with
+// -fno-trapping-math (cmake/ProjectOptions.cmake), under which plain selects vectorise too. A
+// select returns one of its operands bit for bit and the project builds with -ffp-contract=off,
+// so every clone computes the same numbers.
 #pragma once
 
 #include <bit>
