@@ -71,21 +71,31 @@ void BM_PlanetRefinement(benchmark::State& state) {
 }
 BENCHMARK(BM_PlanetRefinement)->Arg(10)->Arg(20)->Unit(benchmark::kMillisecond);
 
-// One tile of `format` over land at about 20° N, 20° E (this planet's central continent), a
-// fresh PlanetTiles each time so that no refinement is reused: the latency of a cache miss.
+// The zoom-z tile over land at about 20° N, 20° E (this planet's central continent).
+terrain::TileAddress central_tile(int z) {
+  return {z, static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z)),
+          static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z))};
+}
+
+// Keeps a made product from being optimised away; false, the benchmark skipped, on an error.
+bool consume(benchmark::State& state, const Result<terrain::Product>& product) {
+  if (!product) {
+    state.SkipWithError(product.error().message.c_str());
+    return false;
+  }
+  benchmark::DoNotOptimize(product->bytes.data());
+  return true;
+}
+
+// One tile of `format` over the central continent, a fresh PlanetTiles each time so that no
+// refinement is reused: the latency of a cache miss.
 void run_planet_tile(benchmark::State& state, terrain::TileFormat format,
                      const std::shared_ptr<const Planet>& world = default_planet()) {
   const int z = static_cast<int>(state.range(0));
-  const terrain::TileAddress a{z, static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z)),
-                               static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z))};
+  const terrain::TileAddress a = central_tile(z);
   for (auto _ : state) {
     PlanetTiles tiles(world);
-    Result<terrain::Product> p = tiles.make(a, format);
-    if (!p) {
-      state.SkipWithError(p.error().message.c_str());
-      return;
-    }
-    benchmark::DoNotOptimize(p->bytes.data());
+    if (!consume(state, tiles.make(a, format))) return;
   }
 }
 
@@ -100,17 +110,11 @@ BENCHMARK(BM_PlanetTile)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond
 // beyond its splits (descent, cubic, detail noise, encoding).
 void run_planet_tile_refined(benchmark::State& state, const std::shared_ptr<const Planet>& world) {
   const int z = static_cast<int>(state.range(0));
-  const terrain::TileAddress a{z, static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z)),
-                               static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z))};
+  const terrain::TileAddress a = central_tile(z);
   PlanetTiles tiles(world);
   (void)tiles.make(a, terrain::TileFormat::terrain_rgb);
   for (auto _ : state) {
-    Result<terrain::Product> p = tiles.make(a, terrain::TileFormat::terrain_rgb);
-    if (!p) {
-      state.SkipWithError(p.error().message.c_str());
-      return;
-    }
-    benchmark::DoNotOptimize(p->bytes.data());
+    if (!consume(state, tiles.make(a, terrain::TileFormat::terrain_rgb))) return;
   }
 }
 void BM_PlanetTileRefined(benchmark::State& state) {
@@ -125,18 +129,14 @@ BENCHMARK(BM_PlanetTileRefined)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMill
 void BM_PlanetTilePanning(benchmark::State& state) {
   const int z = static_cast<int>(state.range(0));
   const std::int64_t columns = std::int64_t{2} << z;
-  const auto y = static_cast<std::int64_t>((110.0 / 180.0) * std::ldexp(1.0, z));
-  std::int64_t x = static_cast<std::int64_t>((200.0 / 180.0) * std::ldexp(1.0, z));
+  const terrain::TileAddress start = central_tile(z);
+  const std::int64_t y = start.y;
+  std::int64_t x = start.x;
   PlanetTiles tiles(default_planet());
   (void)tiles.make({z, x, y}, terrain::TileFormat::terrain_rgb);
   for (auto _ : state) {
     x = (x + 1) % columns;
-    Result<terrain::Product> p = tiles.make({z, x, y}, terrain::TileFormat::terrain_rgb);
-    if (!p) {
-      state.SkipWithError(p.error().message.c_str());
-      return;
-    }
-    benchmark::DoNotOptimize(p->bytes.data());
+    if (!consume(state, tiles.make({z, x, y}, terrain::TileFormat::terrain_rgb))) return;
   }
 }
 BENCHMARK(BM_PlanetTilePanning)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond);
@@ -169,13 +169,10 @@ void scene_tile(benchmark::State& state, const std::string& name) {
     (void)maker->make(terrain::TileScheme::local, address, terrain::TileFormat::terrain_rgb);
   }
   for (auto _ : state) {
-    Result<terrain::Product> p =
-        maker->make(terrain::TileScheme::local, address, terrain::TileFormat::terrain_rgb);
-    if (!p) {
-      state.SkipWithError(p.error().message.c_str());
+    if (!consume(state, maker->make(terrain::TileScheme::local, address,
+                                    terrain::TileFormat::terrain_rgb))) {
       return;
     }
-    benchmark::DoNotOptimize(p->bytes.data());
   }
 }
 

@@ -291,8 +291,7 @@ class Classifier {
     ++inflow_[u];
     if (def_.relief_model == ReliefModel::drainage) {
       path_lift_[v] = std::max(path_lift_[u], kRiverUpliftShare * uplift_[v]);
-      profile_[v] =
-          profile_[u] + headwater_slope_ * mesh_.rules.radius * angle(vertex(u).p, vertex(v).p);
+      profile_[v] = profile_[u] + headwater_rise(u, v);
     }
     in_network_[v] = in_network_[u] = true;
     set_edge(edge, EdgeType::river);
@@ -301,13 +300,18 @@ class Classifier {
     }
   }
 
+  // The drainage model's rise of a headwater along the edge from u to v, at its least slope.
+  double headwater_rise(std::uint32_t u, std::uint32_t v) const {
+    return headwater_slope_ * mesh_.rules.radius * angle(h_.vertices[u].p, h_.vertices[v].p);
+  }
+
   // The drainage model's estimate, while the network grows, of the level a land vertex v would
   // stand at if it drained to u (a network vertex, or a coast vertex as a new mouth): the
   // highest lift on its way from the sea and its profile at a headwater's least slope
   // (assign_altitudes makes the levels themselves).
   double level_through(std::uint32_t u, std::uint32_t v) const {
     return std::max(path_lift_[u], kRiverUpliftShare * uplift_[v]) + profile_[u] +
-           headwater_slope_ * mesh_.rules.radius * angle(h_.vertices[u].p, h_.vertices[v].p);
+           headwater_rise(u, v);
   }
 
   // The next river edge to grow, at random. The drainage relief model draws a few and grows

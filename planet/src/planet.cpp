@@ -153,7 +153,8 @@ void Planet::detail(std::span<const Vec3d> directions, double octaves,
   detail::detail_sums(detail_octaves(octaves), directions.data(), directions.size(), out.data());
 }
 
-Sampler::Sampler(std::shared_ptr<const Planet> planet) : planet_(std::move(planet)) {
+Sampler::Sampler(std::shared_ptr<const Planet> planet)
+    : planet_(std::move(planet)), hierarchy_(planet_->base_mesh().hierarchy.rules()) {
   trim();
 }
 
@@ -164,7 +165,6 @@ void Sampler::trim() {
   // mapped, and the tiles after it neither copy the hierarchy nor fault fresh pages in (a tenth
   // of a tile's time while panning). trim_when_large bounds that memory either way.
   const Hierarchy& base = planet_->base_mesh().hierarchy;
-  if (hierarchy_.rules() != base.rules()) hierarchy_ = Hierarchy(base.rules());
   hierarchy_.tris.reserve(base.tris.size() + (std::size_t{1} << 17));
   hierarchy_.vertices.reserve(base.vertices.size() + (std::size_t{1} << 15));
   hierarchy_.tris.assign(base.tris.begin(), base.tris.end());
@@ -198,11 +198,7 @@ PointSample Sampler::at(const Vec3d& p, int level, double octaves, const Descent
 
 double Sampler::land_ground(std::int32_t t, const std::array<const Vertex*, 3>& corner,
                             const std::array<double, 3>& w) {
-  // A power of two: the slot is the index's low bits. 64 holds a 16-sample block's rows of
-  // leaves at every zoom.
-  constexpr std::size_t kSlots = 64;
-  if (leaf_surfaces_.empty()) leaf_surfaces_.resize(kSlots);
-  LeafSurface& leaf = leaf_surfaces_[static_cast<std::size_t>(t) % kSlots];  // t ≥ 0
+  LeafSurface& leaf = leaf_surfaces_[static_cast<std::size_t>(t) % kLeafSurfaces];  // t ≥ 0
   if (leaf.tri != t || leaf.generation != generation_) {
     const double radius = planet_->definition().radius;
     if (all_dry(corner)) {

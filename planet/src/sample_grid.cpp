@@ -138,13 +138,14 @@ TERRAIN_SIMD_CLONES void draw_floor(const floors::DrainSegment& segment,
     const std::size_t row = static_cast<std::size_t>(r) * samples.cols;
     const std::size_t end = row + static_cast<std::size_t>(c_end);
     for (std::size_t i = row + static_cast<std::size_t>(c_first); i < end; i += kLanes) {
-      std::array<double, kLanes> lowered{};
+      std::array<double, kLanes> ground_after{};
       for (std::size_t j = 0; j < kLanes; ++j) {
-        lowered[j] = floors::lowered(samples.ground[i + j], segment,
-                                     {samples.x[i + j], samples.y[i + j], samples.z[i + j]}, shape);
+        ground_after[j] =
+            floors::lowered(samples.ground[i + j], segment,
+                            {samples.x[i + j], samples.y[i + j], samples.z[i + j]}, shape);
       }
       for (std::size_t j = 0; j < kLanes; ++j) {
-        samples.lowest[i + j] = std::min(samples.lowest[i + j], lowered[j]);
+        samples.lowest[i + j] = std::min(samples.lowest[i + j], ground_after[j]);
       }
     }
   }

@@ -177,19 +177,19 @@ TEST(DrainageModel, RiversRunInValleysNotOnWalls) {
     Sampler(world).grid(g.view(), world->level_for_spacing(spacing), 0.0,
                         [&](std::size_t i, const PointSample& sample) { out[i] = sample; });
     int land = 0, walls = 0;
+    const auto at = [&](int r, int c) -> const PointSample& {
+      return out[static_cast<std::size_t>(r * n + c)];
+    };
     const auto dry = [&](int r, int c) {
-      return out[static_cast<std::size_t>(r * n + c)].type != SurfaceType::sea &&
-             out[static_cast<std::size_t>(r * n + c)].ground > d.sea_level;
+      return at(r, c).type != SurfaceType::sea && at(r, c).ground > d.sea_level;
     };
     for (int r = 0; r + 1 < n; ++r) {
       for (int c = 0; c + 1 < n; ++c) {
         if (!dry(r, c)) continue;
         ++land;
-        const double here = out[static_cast<std::size_t>(r * n + c)].ground;
         for (const auto& [dr, dc] : {std::pair{0, 1}, std::pair{1, 0}}) {
           if (!dry(r + dr, c + dc)) continue;
-          const double there = out[static_cast<std::size_t>((r + dr) * n + c + dc)].ground;
-          if (std::abs(there - here) > spacing) ++walls;
+          if (std::abs(at(r + dr, c + dc).ground - at(r, c).ground) > spacing) ++walls;
         }
       }
     }

@@ -261,8 +261,9 @@ class Sampler {
   };
   /// The surfaces of recent land leaves, by triangle index modulo their number: a tile's rows
   /// cross each leaf two or three times, and making a leaf's surface costs three evaluations
-  /// of it.
-  std::vector<LeafSurface> leaf_surfaces_;
+  /// of it. 64 hold a 16-sample block's rows of leaves at every zoom.
+  static constexpr std::size_t kLeafSurfaces = 64;
+  std::vector<LeafSurface> leaf_surfaces_ = std::vector<LeafSurface>(kLeafSurfaces);
   /// Steps across leaf edges before a point is looked for down the path instead.
   static constexpr int kWalkSteps = 4;
 };
