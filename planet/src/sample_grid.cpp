@@ -207,8 +207,12 @@ void Sampler::grid(const SampleGrid& grid, int level, double octaves, const Grid
       }
       const DescentStart start =
           find_descent_start(direction((r0 + r1) / 2, (c0 + c1) / 2), outline, level);
+      // Rows in alternate directions (a serpentine), so that each sample lies beside the last
+      // and the descent's walk from the last leaf takes a step or two, never a fresh descent.
       for (int r = r0; r <= r1; ++r) {
-        for (int c = c0; c <= c1; ++c) {
+        const bool eastward = (r - r0) % 2 == 0;
+        for (int step = 0; step <= c1 - c0; ++step) {
+          const int c = eastward ? c0 + step : c1 - step;
           const Vec3d p = direction(r, c);
           const std::int32_t leaf = descend(p, level, start);
           if (floors) leaves_.push_back(leaf);
