@@ -144,7 +144,7 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
   // made a new tile beside the last (BM_PlanetTilePanning over hundreds of tiles) 12–19 % slower
   // at zoom 10, with a working set eight times larger and the first round of splits on fresh
   // pages. Half as many made zoom-2 tiles a third slower: they share coarse levels.
-  if (sampler_.cached_triangles() > (std::size_t{1} << 19)) sampler_.trim();
+  if (sampler_.cached_triangles() > kTrimTriangles) sampler_.trim();
   std::vector<double> ground(static_cast<std::size_t>(ext) * static_cast<std::size_t>(ext));
   std::vector<std::uint8_t> wet(ground.size());
   std::vector<double> lat_deg(static_cast<std::size_t>(ext));

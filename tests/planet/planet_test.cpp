@@ -697,6 +697,32 @@ TEST(PlanetTiles, AreIdenticalInAnyOrderThreadAndProcess) {
   EXPECT_EQ(file, forward[1]);
 }
 
+// A tile thread trims its refinement back to the base mesh every ten tiles or so while a user
+// pans (PlanetTiles::kTrimTriangles); what a tile holds must not depend on it.
+TEST(PlanetTiles, AreIdenticalAfterTheirRefinementIsTrimmed) {
+  const auto& world = shared_planet();
+  PlanetTiles tiles(world);
+  const TileAddress first{10, 1000, 600};
+  const std::vector<std::uint8_t> before = bytes_of(tiles, first, TileFormat::terrain_rgb);
+  // Tiles east of it until the refinement has grown past the bound and been trimmed: the sampler
+  // then holds fewer triangles than after the tile before. The tile made first after the trim
+  // is the one that could see what the sampler kept from before it.
+  std::size_t held = tiles.cached_triangles();
+  bool trimmed = false;
+  for (std::int64_t x = first.x + 1; x < first.x + 60 && !trimmed; ++x) {
+    const TileAddress a{first.z, x, first.y};
+    const std::vector<std::uint8_t> bytes = bytes_of(tiles, a, TileFormat::terrain_rgb);
+    trimmed = tiles.cached_triangles() < held;
+    held = tiles.cached_triangles();
+    if (trimmed) {
+      PlanetTiles fresh(world);
+      EXPECT_EQ(bytes, bytes_of(fresh, a, TileFormat::terrain_rgb)) << "tile x = " << x;
+    }
+  }
+  ASSERT_TRUE(trimmed) << "no trim within 60 tiles of " << PlanetTiles::kTrimTriangles;
+  EXPECT_EQ(bytes_of(tiles, first, TileFormat::terrain_rgb), before);
+}
+
 TEST(PlanetTiles, NeighboursShareEdgesExactly) {
   PlanetTiles tiles(shared_planet());
   for (TileAddress a :
