@@ -173,8 +173,12 @@ void Sampler::trim() {
 }
 
 void Sampler::trim_when_large() {
-  // Bounded memory for long-lived samplers: start again from the base mesh now and then.
-  if (hierarchy_.tris.size() > (std::size_t{1} << 23)) trim();
+  // Bounded memory for long-lived samplers: start again from the base mesh now and then. 2²⁰
+  // triangles and their vertices are about 65 MB; a lone sample at full detail anywhere adds
+  // about 450, so the sample route's samplers (one per planet and thread) trim every two
+  // thousand random samples or so, after which a sample splits its few dozen levels again.
+  // At 2²³ they grew to about 520 MB each.
+  if (hierarchy_.tris.size() > kTrimTriangles) trim();
 }
 
 PointSample Sampler::sample(double latitude, double longitude) {

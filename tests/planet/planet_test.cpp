@@ -250,6 +250,26 @@ TEST(PlanetRefinement, HeightsDoNotDependOnWhatWasEvaluatedBefore) {
   }
 }
 
+// The sample route keeps a sampler per planet and thread: random samples at full detail, as a
+// hostile client might send, must not grow it past its bound, and it must trim on its own.
+TEST(PlanetRefinement, ASamplersCacheStaysBoundedUnderRandomFullDetailSamples) {
+  const auto& world = shared_planet();
+  std::mt19937_64 random(23);
+  std::uniform_real_distribution<double> lat(-90, 90), lon(-180, 180);
+  Sampler sampler(world);
+  std::size_t most = 0, held = sampler.cached_triangles();
+  bool trimmed = false;
+  for (int i = 0; i < 20000 && !trimmed; ++i) {
+    (void)sampler.sample(lat(random), lon(random));
+    trimmed = sampler.cached_triangles() < held;
+    held = sampler.cached_triangles();
+    most = std::max(most, held);
+  }
+  EXPECT_TRUE(trimmed) << "no trim in 20 000 samples, " << held << " triangles held";
+  // One sample past the bound adds at most a few hundred triangles before the next one trims.
+  EXPECT_LE(most, Sampler::kTrimTriangles + 4096);
+}
+
 // Tiles start each sample's descent at a triangle shared by a block of samples (DescentStart),
 // or walk to it from the last sample's leaf, or start from the last descent's path. Whatever the
 // block — tiny or wide, deep or shallow, astride the octahedron's edges and the antimeridian —

@@ -185,6 +185,9 @@ class Sampler {
 
   /// Triangles in the cache; trim() drops everything beyond the base mesh.
   std::size_t cached_triangles() const { return hierarchy_.tris.size(); }
+  /// Past this many cached triangles a sample or grid trims the cache first (planet.cpp says
+  /// why this many).
+  static constexpr std::size_t kTrimTriangles = std::size_t{1} << 20;
   void trim();
 
  private:
