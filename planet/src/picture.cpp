@@ -61,7 +61,6 @@ std::vector<std::uint8_t> planet_picture_rgb(const std::shared_ptr<const Planet>
         river[at] = s.river_distance < half_width(s.river_drainage_area) ? 1 : 0;
         type[at] = static_cast<std::uint8_t>(s.type);
       }
-      if (sampler.cached_triangles() > (std::size_t{1} << 21)) sampler.trim();
     }
   };
   const int threads = std::max(1, options.threads);
