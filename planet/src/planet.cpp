@@ -153,8 +153,10 @@ void Planet::detail(std::span<const Vec3d> directions, double octaves,
   detail::detail_sums(detail_octaves(octaves), directions.data(), directions.size(), out.data());
 }
 
-Sampler::Sampler(std::shared_ptr<const Planet> planet)
-    : planet_(std::move(planet)), hierarchy_(planet_->base_mesh().hierarchy.rules()) {
+Sampler::Sampler(std::shared_ptr<const Planet> planet, std::size_t trim_bound)
+    : planet_(std::move(planet)),
+      hierarchy_(planet_->base_mesh().hierarchy.rules()),
+      trim_bound_(trim_bound) {
   trim();
 }
 
@@ -177,8 +179,8 @@ void Sampler::trim_when_large() {
   // triangles and their vertices are about 65 MB; a lone sample at full detail anywhere adds
   // about 450, so the sample route's samplers (one per planet and thread) trim every two
   // thousand random samples or so, after which a sample splits its few dozen levels again.
-  // At 2²³ they grew to about 520 MB each.
-  if (hierarchy_.tris.size() > kTrimTriangles) trim();
+  // At 2²³ they grew to about 520 MB each. A tile's sampler keeps less (PlanetTiles).
+  if (hierarchy_.tris.size() > trim_bound_) trim();
 }
 
 PointSample Sampler::sample(double latitude, double longitude) {

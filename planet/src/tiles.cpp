@@ -45,7 +45,15 @@ std::vector<std::vector<terrain::AvailabilityRectangle>> everything(int from_z, 
 
 }  // namespace
 
-PlanetTiles::PlanetTiles(std::shared_ptr<const Planet> planet) : sampler_(std::move(planet)) {}
+// A tile's refinement is about 45 000 triangles at zoom 10, so a thread keeps the last ten or so
+// tiles' worth of splits (about 35 MB; the sampler trims before a tile past that): neighbours
+// share the levels above them, and a tile already made is in the product cache. Keeping eight
+// times as many (about 260 MB a thread) made a new tile beside the last (BM_PlanetTilePanning
+// over hundreds of tiles) 12–19 % slower at zoom 10, with a working set eight times larger and
+// the first round of splits on fresh pages. Half as many made zoom-2 tiles a third slower: they
+// share coarse levels.
+PlanetTiles::PlanetTiles(std::shared_ptr<const Planet> planet)
+    : sampler_(std::move(planet), kTrimTriangles) {}
 
 int PlanetTiles::max_zoom() {
   return terrain::max_zoom(TileScheme::geographic);
@@ -138,13 +146,6 @@ Result<HeightTile> PlanetTiles::evaluate(const TileRequest& request,
     sin_lon[static_cast<std::size_t>(c)] = std::sin(lon * kDegree);
     cos_lon[static_cast<std::size_t>(c)] = std::cos(lon * kDegree);
   }
-  // A tile's refinement is about 45 000 triangles at zoom 10, so a thread keeps the last ten or
-  // so tiles' worth of splits (about 35 MB): neighbours share the levels above them, and a tile
-  // already made is in the product cache. Keeping eight times as many (about 260 MB a thread)
-  // made a new tile beside the last (BM_PlanetTilePanning over hundreds of tiles) 12–19 % slower
-  // at zoom 10, with a working set eight times larger and the first round of splits on fresh
-  // pages. Half as many made zoom-2 tiles a third slower: they share coarse levels.
-  if (sampler_.cached_triangles() > kTrimTriangles) sampler_.trim();
   std::vector<double> ground(static_cast<std::size_t>(ext) * static_cast<std::size_t>(ext));
   std::vector<std::uint8_t> wet(ground.size());
   std::vector<double> lat_deg(static_cast<std::size_t>(ext));

@@ -154,7 +154,10 @@ using GridSink = std::function<void(std::size_t index, const PointSample& sample
 /// never depend on it); not thread-safe: one per thread.
 class Sampler {
  public:
-  explicit Sampler(std::shared_ptr<const Planet> planet);
+  /// `trim_bound`: past this many cached triangles a sample or grid first trims the cache back
+  /// to the base mesh (bounded memory for long-lived samplers; results never depend on it).
+  explicit Sampler(std::shared_ptr<const Planet> planet,
+                   std::size_t trim_bound = kTrimTriangles);
 
   const Planet& planet() const { return *planet_; }
 
@@ -185,9 +188,9 @@ class Sampler {
 
   /// Triangles in the cache; trim() drops everything beyond the base mesh.
   std::size_t cached_triangles() const { return hierarchy_.tris.size(); }
-  /// Past this many cached triangles a sample or grid trims the cache first (planet.cpp says
-  /// why this many).
+  /// The default trim bound (planet.cpp says why this many).
   static constexpr std::size_t kTrimTriangles = std::size_t{1} << 20;
+  std::size_t trim_bound() const { return trim_bound_; }
   void trim();
 
  private:
@@ -233,6 +236,7 @@ class Sampler {
 
   std::shared_ptr<const Planet> planet_;
   Hierarchy hierarchy_;
+  std::size_t trim_bound_;
   std::uint64_t generation_ = 0;  ///< trims so far: a DescentStart of another is stale
   /// The last descent's triangles, its start first, each holding the last point (see
   /// DescentStart: any of them that holds the next point by the margin lies on its way down).

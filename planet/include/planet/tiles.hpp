@@ -73,8 +73,8 @@ class PlanetTiles {
     return make(terrain::TileScheme::geographic, address, format, options);
   }
 
-  /// Triangles of refinement kept between tiles: past this many the sampler is trimmed back to
-  /// the base mesh before the next tile (tiles.cpp says why this many).
+  /// Its sampler's trim bound: past this many triangles of refinement kept between tiles, the
+  /// sampler trims back to the base mesh before the next tile (tiles.cpp says why this many).
   static constexpr std::size_t kTrimTriangles = std::size_t{1} << 19;
   /// Triangles the sampler holds now, the base mesh's included.
   std::size_t cached_triangles() const { return sampler_.cached_triangles(); }
