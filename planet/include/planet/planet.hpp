@@ -156,8 +156,7 @@ class Sampler {
  public:
   /// `trim_bound`: past this many cached triangles a sample or grid first trims the cache back
   /// to the base mesh (bounded memory for long-lived samplers; results never depend on it).
-  explicit Sampler(std::shared_ptr<const Planet> planet,
-                   std::size_t trim_bound = kTrimTriangles);
+  explicit Sampler(std::shared_ptr<const Planet> planet, std::size_t trim_bound = kTrimTriangles);
 
   const Planet& planet() const { return *planet_; }
 
