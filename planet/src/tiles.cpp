@@ -45,13 +45,13 @@ std::vector<std::vector<terrain::AvailabilityRectangle>> everything(int from_z, 
 
 }  // namespace
 
-// A tile's refinement is about 45 000 triangles at zoom 10, so a thread keeps the last ten or so
-// tiles' worth of splits (about 35 MB; the sampler trims before a tile past that): neighbours
-// share the levels above them, and a tile already made is in the product cache. Keeping eight
-// times as many (about 260 MB a thread) made a new tile beside the last (BM_PlanetTilePanning
-// over hundreds of tiles) 12–19 % slower at zoom 10, with a working set eight times larger and
-// the first round of splits on fresh pages. Half as many made zoom-2 tiles a third slower: they
-// share coarse levels.
+// A new zoom-10 tile adds about 10 000 to 270 000 triangles of refinement, as its leaves vary
+// (planet.md "Leaves per tile"), so a thread keeps from one to dozens of tiles' worth of splits
+// (about 35 MB; the sampler trims before a tile past that): neighbours share the levels above
+// them, and a tile already made is in the product cache. Keeping eight times as many (about
+// 260 MB a thread) made a new tile beside the last (BM_PlanetTilePanning over hundreds of tiles)
+// 12–19 % slower at zoom 10, with a working set eight times larger and the first round of splits
+// on fresh pages. Half as many made zoom-2 tiles a third slower: they share coarse levels.
 PlanetTiles::PlanetTiles(std::shared_ptr<const Planet> planet)
     : sampler_(std::move(planet), kTrimTriangles) {}
 

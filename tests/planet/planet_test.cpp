@@ -717,8 +717,8 @@ TEST(PlanetTiles, AreIdenticalInAnyOrderThreadAndProcess) {
   EXPECT_EQ(file, forward[1]);
 }
 
-// A tile thread trims its refinement back to the base mesh every ten tiles or so while a user
-// pans (PlanetTiles::kTrimTriangles); what a tile holds must not depend on it.
+// A tile thread trims its refinement back to the base mesh every few tiles while a user pans
+// (PlanetTiles::kTrimTriangles); what a tile holds must not depend on it.
 TEST(PlanetTiles, AreIdenticalAfterTheirRefinementIsTrimmed) {
   const auto& world = shared_planet();
   PlanetTiles tiles(world);
@@ -741,8 +741,8 @@ TEST(PlanetTiles, AreIdenticalAfterTheirRefinementIsTrimmed) {
     }
   }
   ASSERT_TRUE(trimmed) << "no trim within 60 tiles of " << PlanetTiles::kTrimTriangles;
-  // The tiles' own bound, not a lone sampler's (2^20): at most a tile past it (this row's tiles
-  // add up to about 60 000 triangles each).
+  // The tiles' own bound, not a lone sampler's (2^20): one tile past it (here about 60 000
+  // triangles past it: the tile that crosses it starts below it).
   EXPECT_LE(most, PlanetTiles::kTrimTriangles + (std::size_t{1} << 17));
   EXPECT_EQ(bytes_of(tiles, first, TileFormat::terrain_rgb), before);
 }

@@ -189,7 +189,6 @@ class Sampler {
   std::size_t cached_triangles() const { return hierarchy_.tris.size(); }
   /// The default trim bound (planet.cpp says why this many).
   static constexpr std::size_t kTrimTriangles = std::size_t{1} << 20;
-  std::size_t trim_bound() const { return trim_bound_; }
   void trim();
 
  private:
