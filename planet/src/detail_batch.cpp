@@ -52,10 +52,10 @@ using V4u32 = std::uint32_t __attribute__((vector_size(16)));
 }
 
 /// corner() of gradient_noise.hpp for four lanes: the cell coordinates' low 32 bits, the seed
-/// and the offsets from the corner.
+/// (one for every lane, or one per lane) and the offsets from the corner.
+template <typename Seed>
 [[gnu::target("avx2"), gnu::always_inline]] inline V4d corner4(V4u32 ix, V4u32 iy, V4u32 iz,
-                                                               std::uint32_t seed, V4d x, V4d y,
-                                                               V4d z) {
+                                                               Seed seed, V4d x, V4d y, V4d z) {
   const V4u32 h = terrain::noise::detail::lowbias32<V4u32>(ix * 0x8da6b343U ^ iy * 0xd8163841U ^
                                                            iz * 0xcb1ab31fU ^ seed);
   // h % 12 exactly: q = ⌊h · 0xAAAAAAAB / 2^35⌋ = ⌊h / 12⌋ for every 32-bit h.
@@ -84,8 +84,8 @@ using V4u32 = std::uint32_t __attribute__((vector_size(16)));
 }
 
 /// gradient3 of gradient_noise.hpp for four lanes.
-[[gnu::target("avx2"), gnu::always_inline]] inline V4d gradient4(V4d x, V4d y, V4d z,
-                                                                 std::uint32_t seed) {
+template <typename Seed>
+[[gnu::target("avx2"), gnu::always_inline]] inline V4d gradient4(V4d x, V4d y, V4d z, Seed seed) {
   const V4d fx = floor4(x), fy = floor4(y), fz = floor4(z);
   const V4u32 ix = low_bits(fx), iy = low_bits(fy), iz = low_bits(fz);
   const V4d rx = x - fx, ry = y - fy, rz = z - fz;
@@ -130,7 +130,20 @@ using V4u32 = std::uint32_t __attribute__((vector_size(16)));
   sums_one_by_one(plan, p + i, n - i, out + i);
 }
 
+[[gnu::target("avx2")]] Four gradients_by_four(const Four& x, const Four& y, const Four& z,
+                                               const FourSeeds& seed) {
+  const V4d s = gradient4(V4d{x[0], x[1], x[2], x[3]}, V4d{y[0], y[1], y[2], y[3]},
+                          V4d{z[0], z[1], z[2], z[3]}, V4u32{seed[0], seed[1], seed[2], seed[3]});
+  return {s[0], s[1], s[2], s[3]};
+}
+
 #endif
+
+Four gradients_one_by_one(const Four& x, const Four& y, const Four& z, const FourSeeds& seed) {
+  Four out{};
+  for (std::size_t i = 0; i < 4; ++i) out[i] = gradient3(x[i], y[i], z[i], seed[i]);
+  return out;
+}
 
 // One version per instruction set, picked when the program loads (as terrain's noise is): the
 // baseline sums one direction at a time, AVX2 four. The versions and their callers must share a
@@ -158,10 +171,34 @@ void sums(const DetailOctaves& plan, const Vec3d* p, std::size_t n, double* out)
 }
 #endif
 
+#if TERRAIN_MULTIVERSION
+[[gnu::target("default")]]
+#endif
+Four gradients(const Four& x, const Four& y, const Four& z, const FourSeeds& seed) {
+  return gradients_one_by_one(x, y, z, seed);
+}
+
+#if TERRAIN_MULTIVERSION
+[[gnu::target("avx2")]] Four gradients(const Four& x, const Four& y, const Four& z,
+                                       const FourSeeds& seed) {
+  // low_bits is exact below 2^51 (sums() above).
+  for (const Four* axis : {&x, &y, &z}) {
+    for (const double v : *axis) {
+      if (!(std::abs(v) < 0x1p50)) return gradients_one_by_one(x, y, z, seed);
+    }
+  }
+  return gradients_by_four(x, y, z, seed);
+}
+#endif
+
 }  // namespace
 
 void detail_sums(const DetailOctaves& plan, const Vec3d* p, std::size_t n, double* out) {
   sums(plan, p, n, out);
+}
+
+Four gradient3_fours(const Four& x, const Four& y, const Four& z, const FourSeeds& seed) {
+  return gradients(x, y, z, seed);
 }
 
 }  // namespace planet::detail
