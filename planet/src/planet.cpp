@@ -237,30 +237,24 @@ DescentStart Sampler::start_at(std::int32_t t) const {
   return start;
 }
 
-const DescentStart& Sampler::walk_start(std::int32_t t) {
-  DescentStart& kept = walk_starts_[static_cast<std::size_t>(t) % kWalkStarts];  // t ≥ 0
-  if (kept.tri != t || kept.generation != generation_) kept = start_at(t);
-  return kept;
-}
-
 std::int32_t Sampler::descend(const Vec3d& p, int level, const DescentStart& start) {
   const bool current = path_level_ == level && !path_.empty() && leaf_.generation == generation_;
   if (current) {
     // Walk from the last leaf across the edges p lies beyond: a level is a triangulation, so a
     // triangle of it that holds p by the margin is the leaf p's descent ends in.
-    const DescentStart* at = &leaf_;
+    DescentStart at = leaf_;
     for (int step = 0; step <= kWalkSteps; ++step) {
-      if (at->holds(p)) {
-        if (at != &leaf_) leaf_ = *at;
-        return leaf_.tri;
+      if (at.holds(p)) {
+        leaf_ = at;
+        return at.tri;
       }
       if (step == kWalkSteps) break;
       std::size_t beyond = 0;
       for (std::size_t k = 1; k < 3; ++k) {
-        if (dot(at->normal[k], p) < dot(at->normal[beyond], p)) beyond = k;
+        if (dot(at.normal[k], p) < dot(at.normal[beyond], p)) beyond = k;
       }
-      if (beyond == 0) hierarchy_.ensure_partner(at->tri);
-      at = &walk_start(hierarchy_.tris[static_cast<std::size_t>(at->tri)].nb[beyond]);
+      if (beyond == 0) hierarchy_.ensure_partner(at.tri);
+      at = start_at(hierarchy_.tris[static_cast<std::size_t>(at.tri)].nb[beyond]);
     }
   }
   // Else descend from the deepest triangle of the last descent that holds p.

@@ -229,8 +229,6 @@ class Sampler {
   DescentStart find_descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level);
   /// Triangle t with its edges' planes.
   DescentStart start_at(std::int32_t t) const;
-  /// The same, kept for the walks (walk_starts_).
-  const DescentStart& walk_start(std::int32_t t);
   /// The triangle at `level` holding p: the leaf locate(p, level) finds, bit for bit, descending
   /// from the deepest triangle of the last descent that holds p, else from `start` when usable,
   /// else from the octahedron.
@@ -277,11 +275,6 @@ class Sampler {
   std::vector<LeafSurface> leaf_surfaces_ = std::vector<LeafSurface>(kLeafSurfaces);
   /// Steps across leaf edges before a point is looked for down the path instead.
   static constexpr int kWalkSteps = 4;
-  /// The leaves the walks stepped into, this generation's, by triangle index modulo their
-  /// number: a tile's rows step into a new leaf at about every sample, and into each leaf about
-  /// five times, so most steps find its edges' planes here instead of making them again.
-  static constexpr std::size_t kWalkStarts = 256;
-  std::vector<DescentStart> walk_starts_ = std::vector<DescentStart>(kWalkStarts);
 };
 
 /// {"latitude", "longitude", "ground", "water", "type", "level"}: the sample route's body.
