@@ -178,18 +178,7 @@ void Sampler::grid(const SampleGrid& grid, int level, double octaves, const Grid
     order_.reserve(count);
     leaves_.reserve(count);
     pending_directions_.reserve(count);
-    // The floors' packed arrays (draw_floors), written as each sample is made, while it is at
-    // hand; every grid index is written once, so only the padding is filled here (and a tile's
-    // arrays keep their size from the last tile).
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    ground_.resize(count + kLanes);
-    std::fill(ground_.begin() + static_cast<std::ptrdiff_t>(count), ground_.end(), nan);
-    for (std::vector<double>& axis : direction_) {
-      axis.resize(count + kLanes);
-      std::fill(axis.begin() + static_cast<std::ptrdiff_t>(count), axis.end(), 0.0);
-    }
   }
-  bool any_land = false;
   const Geodesy& geodesy = planet_->geodesy();
   const auto direction = [&](int r, int c) {
     const auto ur = static_cast<std::size_t>(r), uc = static_cast<std::size_t>(c);
@@ -227,29 +216,19 @@ void Sampler::grid(const SampleGrid& grid, int level, double octaves, const Grid
           const int c = eastward ? c0 + step : c1 - step;
           const Vec3d p = direction(r, c);
           const std::int32_t leaf = descend(p, level, start);
-          const std::size_t index =
-              static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols) +
-              static_cast<std::size_t>(c);
-          order_.push_back(index);
+          if (floors) leaves_.push_back(leaf);
+          order_.push_back(static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols) +
+                           static_cast<std::size_t>(c));
           pending_directions_.push_back(p);
           pending_.push_back(undetailed(leaf, p, level, false));
-          if (floors) {
-            leaves_.push_back(leaf);
-            const bool land = pending_.back().face == FaceType::land;
-            any_land = any_land || land;
-            for (std::size_t j = 0; j < 3; ++j) direction_[j][index] = p[j];
-            ground_[index] =
-                land ? pending_.back().out.ground : std::numeric_limits<double>::quiet_NaN();
-          }
         }
       }
       if (!floors) finish_pending(octaves, out, nullptr);
     }
   }
   if (floors) {
-    // No floor lowers the sea: a grid without land draws none.
-    if (any_land) draw_floors(grid, level);
-    finish_pending(octaves, out, any_land ? floor_.data() : nullptr);
+    const bool drawn = draw_floors(grid, level);
+    finish_pending(octaves, out, drawn ? floor_.data() : nullptr);
   }
 }
 
@@ -275,13 +254,32 @@ void Sampler::finish_pending(double octaves, const GridSink& out, const double* 
   pending_directions_.clear();
 }
 
-void Sampler::draw_floors(const SampleGrid& grid, int level) {
+bool Sampler::draw_floors(const SampleGrid& grid, int level) {
+  const std::size_t count = pending_.size();
+  if (std::none_of(pending_.begin(), pending_.end(),
+                   [](const Undetailed& s) { return s.face == FaceType::land; })) {
+    return false;
+  }
   const floors::FloorShape shape = floors::floor_shape(planet_->rules(), level);
   // A little beyond the reach, so that rounding never leaves out an edge a walk would take.
   const double reach = shape.reach_chord() * (1.0 + 1e-6);
-  // The grounds before (NaN off land, which no floor lowers) and after, and the directions,
-  // packed in grid order by grid(), one array per coordinate, so that drawing a floor along a
-  // row vectorises (the samples' records are ten times larger); padded for draw_floor.
+  // The grounds before and after and the directions, packed in grid order, one array per
+  // coordinate, so that drawing a floor along a row vectorises (the samples' records are ten
+  // times larger); NaN off land, which no floor lowers; padded for draw_floor.
+  // Every sample is written below (order_ holds each grid index once), only the padding here:
+  // a tile's arrays keep their size from the last tile and are not filled twice.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  ground_.resize(count + kLanes);
+  std::fill(ground_.begin() + static_cast<std::ptrdiff_t>(count), ground_.end(), nan);
+  for (std::vector<double>& axis : direction_) {
+    axis.resize(count + kLanes);
+    std::fill(axis.begin() + static_cast<std::ptrdiff_t>(count), axis.end(), 0.0);
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t i = order_[k];
+    for (std::size_t j = 0; j < 3; ++j) direction_[j][i] = pending_directions_[k][j];
+    ground_[i] = pending_[k].face == FaceType::land ? pending_[k].out.ground : nan;
+  }
   floor_ = ground_;
   // Rows by z: a sample within reach of a point of the chord differs from it in z by the reach
   // at most, and the chord's z lies between its ends'. Rows' z falls with the row.
@@ -403,6 +401,7 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
       draw(segment, r_first, r_end, first, end);
     }
   }
+  return true;
 }
 
 }  // namespace planet

@@ -210,9 +210,9 @@ class Sampler {
   }
   /// grid()'s floors: every drain edge of `level` within reach of a sample drawn onto the
   /// samples it reaches (pending_[k] for grid sample order_[k], in leaves_[k], at
-  /// pending_directions_[k], packed by grid index in direction_ and ground_), into floor_ by
-  /// grid index (NaN off land).
-  void draw_floors(const SampleGrid& grid, int level);
+  /// pending_directions_[k]), into floor_ by grid index (NaN off land). False, and nothing
+  /// drawn, where no sample is on land.
+  bool draw_floors(const SampleGrid& grid, int level);
   /// grid()'s pending_ samples with their detail noise, to `out` with their order_ index
   /// (pending_directions_ holds their directions); `lowest`, where given, is the ground after
   /// the floors by grid index (NaN: the sample's own).
