@@ -223,16 +223,16 @@ void Sampler::grid(const SampleGrid& grid, int level, double octaves, const Grid
           pending_.push_back(undetailed(leaf, p, level, false));
         }
       }
-      if (!floors) finish_pending(octaves, out, nullptr);
+      if (!floors) finish_pending(octaves, out);
     }
   }
   if (floors) {
-    const bool drawn = draw_floors(grid, level);
-    finish_pending(octaves, out, drawn ? floor_.data() : nullptr);
+    draw_floors(grid, level);
+    finish_pending(octaves, out);
   }
 }
 
-void Sampler::finish_pending(double octaves, const GridSink& out, const double* lowest) {
+void Sampler::finish_pending(double octaves, const GridSink& out) {
   detailed_.clear();
   const bool detailed = planet_->has_detail_octaves(octaves) && octaves > 0.0;
   if (detailed) {
@@ -244,8 +244,7 @@ void Sampler::finish_pending(double octaves, const GridSink& out, const double* 
   if (!detailed_.empty()) planet_->detail(detailed_, octaves, detail_);
   std::size_t next = 0;
   for (std::size_t k = 0; k < pending_.size(); ++k) {
-    Undetailed& sample = pending_[k];
-    if (lowest != nullptr && !std::isnan(lowest[order_[k]])) sample.out.ground = lowest[order_[k]];
+    const Undetailed& sample = pending_[k];
     out(order_[k], detailed && sample.weight > 0.0 ? finish(sample, detail_[next++])
                                                    : finish(sample, std::nullopt));
   }
@@ -254,11 +253,11 @@ void Sampler::finish_pending(double octaves, const GridSink& out, const double* 
   pending_directions_.clear();
 }
 
-bool Sampler::draw_floors(const SampleGrid& grid, int level) {
+void Sampler::draw_floors(const SampleGrid& grid, int level) {
   const std::size_t count = pending_.size();
   if (std::none_of(pending_.begin(), pending_.end(),
                    [](const Undetailed& s) { return s.face == FaceType::land; })) {
-    return false;
+    return;
   }
   const floors::FloorShape shape = floors::floor_shape(planet_->rules(), level);
   // A little beyond the reach, so that rounding never leaves out an edge a walk would take.
@@ -266,19 +265,13 @@ bool Sampler::draw_floors(const SampleGrid& grid, int level) {
   // The grounds before and after and the directions, packed in grid order, one array per
   // coordinate, so that drawing a floor along a row vectorises (the samples' records are ten
   // times larger); NaN off land, which no floor lowers; padded for draw_floor.
-  // Every sample is written below (order_ holds each grid index once), only the padding here:
-  // a tile's arrays keep their size from the last tile and are not filled twice.
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  ground_.resize(count + kLanes);
-  std::fill(ground_.begin() + static_cast<std::ptrdiff_t>(count), ground_.end(), nan);
-  for (std::vector<double>& axis : direction_) {
-    axis.resize(count + kLanes);
-    std::fill(axis.begin() + static_cast<std::ptrdiff_t>(count), axis.end(), 0.0);
-  }
+  ground_.assign(count + kLanes, nan);
+  for (std::vector<double>& axis : direction_) axis.assign(count + kLanes, 0.0);
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t i = order_[k];
     for (std::size_t j = 0; j < 3; ++j) direction_[j][i] = pending_directions_[k][j];
-    ground_[i] = pending_[k].face == FaceType::land ? pending_[k].out.ground : nan;
+    if (pending_[k].face == FaceType::land) ground_[i] = pending_[k].out.ground;
   }
   floor_ = ground_;
   // Rows by z: a sample within reach of a point of the chord differs from it in z by the reach
@@ -309,7 +302,6 @@ bool Sampler::draw_floors(const SampleGrid& grid, int level) {
     reached_.push_back(t);
   };
   reached_.clear();
-  drain_sides_.clear();
   for (const std::int32_t leaf : leaves_) {
     if (!marked(leaf)) mark(leaf);
   }
@@ -318,9 +310,6 @@ bool Sampler::draw_floors(const SampleGrid& grid, int level) {
     hierarchy_.ensure_partner(u);
     const Tri tri = hierarchy_.tris[static_cast<std::size_t>(u)];
     for (std::size_t k = 0; k < 3; ++k) {
-      // An edge's type is fixed when its triangle is made; its neighbours and corners are read
-      // below, once every split is done.
-      if (tri.edge[k] == EdgeType::drain) drain_sides_.push_back({u, static_cast<int>(k)});
       const std::int32_t across = tri.nb[k];
       if (across < 0 || marked(across)) continue;
       if (!bounds.near(hierarchy_.vertices[tri.v[k]].p,
@@ -348,60 +337,66 @@ bool Sampler::draw_floors(const SampleGrid& grid, int level) {
   const double slab = reach + 1e-15;
   // The last edge's rows and columns, where the next one's are looked for first.
   int r_first = 0, r_end = 0, c_first = 0, c_end = 0;
-  for (const auto& [u, side] : drain_sides_) {
+  for (const std::int32_t u : reached_) {
     const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(u)];
-    const auto k = static_cast<std::size_t>(side);
-    const std::int32_t across = tri.nb[k];
-    if (across >= 0 && marked(across) && across < u) continue;
-    const Vertex& a = hierarchy_.vertices[tri.v[k]];
-    const Vertex& b = hierarchy_.vertices[tri.v[(k + 1) % 3]];
-    if (!bounds.near(a.p, b.p)) continue;
-    const floors::DrainSegment segment = floors::drain_segment(a, b, shape);
-    const double z_lo = std::min(a.p[2], b.p[2]) - slab, z_hi = std::max(a.p[2], b.p[2]) + slab;
-    r_first = first_where_not_from(
-        r_first, 0, grid.rows, [&](int r) { return row_z[static_cast<std::size_t>(r)] > z_hi; });
-    r_end = first_where_not_from(r_end, r_first, grid.rows,
-                                 [&](int r) { return row_z[static_cast<std::size_t>(r)] >= z_lo; });
-    if (r_first >= r_end) continue;
-    if (bounds.meridians) {
-      // The plane of column c: (−sin λ_c, cos λ_c, 0)·q falls as c goes east while the grid
-      // spans less than a sixth of a turn.
-      const auto across_meridian = [&](std::size_t c, const Vec3d& q) {
-        return -q[0] * grid.sin_lon[c] + q[1] * grid.cos_lon[c];
-      };
-      c_first = first_where_not_from(c_first, 0, grid.cols, [&](int c) {
-        const auto column = static_cast<std::size_t>(c);
-        return std::min(across_meridian(column, a.p), across_meridian(column, b.p)) > slab;
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (tri.edge[k] != EdgeType::drain) continue;
+      const std::int32_t across = tri.nb[k];
+      if (across >= 0 && marked(across) && across < u) continue;
+      const Vertex& a = hierarchy_.vertices[tri.v[k]];
+      const Vertex& b = hierarchy_.vertices[tri.v[(k + 1) % 3]];
+      if (!bounds.near(a.p, b.p)) continue;
+      const floors::DrainSegment segment = floors::drain_segment(a, b, shape);
+      const double z_lo = std::min(a.p[2], b.p[2]) - slab, z_hi = std::max(a.p[2], b.p[2]) + slab;
+      r_first = first_where_not_from(
+          r_first, 0, grid.rows, [&](int r) { return row_z[static_cast<std::size_t>(r)] > z_hi; });
+      r_end = first_where_not_from(r_end, r_first, grid.rows, [&](int r) {
+        return row_z[static_cast<std::size_t>(r)] >= z_lo;
       });
-      c_end = first_where_not_from(c_end, c_first, grid.cols, [&](int c) {
-        const auto column = static_cast<std::size_t>(c);
-        return std::max(across_meridian(column, a.p), across_meridian(column, b.p)) >= -slab;
-      });
-      draw(segment, r_first, r_end, c_first, c_end);
-      continue;
-    }
-    // A grid a sixth of a turn wide or more (zooms 0 and 1): columns by longitude. Degrees within
-    // reach: the reach as an angle, widened for the ellipsoid's geodetic latitude (at most
-    // 1 + 2f of it) and for the arc's bulge beyond the chord.
-    const double margin =
-        ((1.0 + 2.0 * flattening) * reach * 1.001 + 0.125 * dot(segment.ab, segment.ab)) / kDegree +
-        1e-9;
-    double lat_a = 0.0, lon_a = 0.0, lat_b = 0.0, lon_b = 0.0;
-    geodesy.direction_to_geographic(a.p, lat_a, lon_a);
-    geodesy.direction_to_geographic(b.p, lat_b, lon_b);
-    if (lon_b - lon_a > 180.0) lon_b -= 360.0;
-    if (lon_a - lon_b > 180.0) lon_b += 360.0;
-    const double polar = std::max(std::abs(lat_a), std::abs(lat_b)) + margin;
-    const double widen = polar < 89.0 ? margin / std::cos(polar * kDegree) : 360.0;
-    for (const double turn : {-360.0, 0.0, 360.0}) {
-      const double lon_lo = std::min(lon_a, lon_b) + turn - widen;
-      const double lon_hi = std::max(lon_a, lon_b) + turn + widen;
-      if (lon_hi < west || lon_lo > east) continue;
-      const auto [first, end] = columns_between(grid.longitude, lon_lo, lon_hi);
-      draw(segment, r_first, r_end, first, end);
+      if (r_first >= r_end) continue;
+      if (bounds.meridians) {
+        // The plane of column c: (−sin λ_c, cos λ_c, 0)·q falls as c goes east while the grid
+        // spans less than a sixth of a turn.
+        const auto across_meridian = [&](std::size_t c, const Vec3d& q) {
+          return -q[0] * grid.sin_lon[c] + q[1] * grid.cos_lon[c];
+        };
+        c_first = first_where_not_from(c_first, 0, grid.cols, [&](int c) {
+          const auto column = static_cast<std::size_t>(c);
+          return std::min(across_meridian(column, a.p), across_meridian(column, b.p)) > slab;
+        });
+        c_end = first_where_not_from(c_end, c_first, grid.cols, [&](int c) {
+          const auto column = static_cast<std::size_t>(c);
+          return std::max(across_meridian(column, a.p), across_meridian(column, b.p)) >= -slab;
+        });
+        draw(segment, r_first, r_end, c_first, c_end);
+        continue;
+      }
+      // A grid a sixth of a turn wide or more (zooms 0 and 1): columns by longitude. Degrees within
+      // reach: the reach as an angle, widened for the ellipsoid's geodetic latitude (at most
+      // 1 + 2f of it) and for the arc's bulge beyond the chord.
+      const double margin =
+          ((1.0 + 2.0 * flattening) * reach * 1.001 + 0.125 * dot(segment.ab, segment.ab)) /
+              kDegree +
+          1e-9;
+      double lat_a = 0.0, lon_a = 0.0, lat_b = 0.0, lon_b = 0.0;
+      geodesy.direction_to_geographic(a.p, lat_a, lon_a);
+      geodesy.direction_to_geographic(b.p, lat_b, lon_b);
+      if (lon_b - lon_a > 180.0) lon_b -= 360.0;
+      if (lon_a - lon_b > 180.0) lon_b += 360.0;
+      const double polar = std::max(std::abs(lat_a), std::abs(lat_b)) + margin;
+      const double widen = polar < 89.0 ? margin / std::cos(polar * kDegree) : 360.0;
+      for (const double turn : {-360.0, 0.0, 360.0}) {
+        const double lon_lo = std::min(lon_a, lon_b) + turn - widen;
+        const double lon_hi = std::max(lon_a, lon_b) + turn + widen;
+        if (lon_hi < west || lon_lo > east) continue;
+        const auto [first, end] = columns_between(grid.longitude, lon_lo, lon_hi);
+        draw(segment, r_first, r_end, first, end);
+      }
     }
   }
-  return true;
+  for (std::size_t k = 0; k < count; ++k) {
+    if (!std::isnan(floor_[order_[k]])) pending_[k].out.ground = floor_[order_[k]];
+  }
 }
 
 }  // namespace planet

@@ -210,13 +210,11 @@ class Sampler {
   }
   /// grid()'s floors: every drain edge of `level` within reach of a sample drawn onto the
   /// samples it reaches (pending_[k] for grid sample order_[k], in leaves_[k], at
-  /// pending_directions_[k]), into floor_ by grid index (NaN off land). False, and nothing
-  /// drawn, where no sample is on land.
-  bool draw_floors(const SampleGrid& grid, int level);
+  /// pending_directions_[k]).
+  void draw_floors(const SampleGrid& grid, int level);
   /// grid()'s pending_ samples with their detail noise, to `out` with their order_ index
-  /// (pending_directions_ holds their directions); `lowest`, where given, is the ground after
-  /// the floors by grid index (NaN: the sample's own).
-  void finish_pending(double octaves, const GridSink& out, const double* lowest);
+  /// (pending_directions_ holds their directions).
+  void finish_pending(double octaves, const GridSink& out);
   /// The sample with `detail` added (none: no detail at all), clamped, and its water and type.
   PointSample finish(const Undetailed& sample, std::optional<double> detail) const;
   void trim_when_large();
@@ -250,9 +248,7 @@ class Sampler {
   std::vector<std::int32_t> leaves_;       ///< grid(): the leaf of each pending_ sample
   std::vector<std::int32_t> walk_;         ///< a floor walk's triangles
   std::vector<std::int32_t> reached_;      ///< draw_floors(): the triangles within reach
-  /// draw_floors(): the drain edges of reached_'s triangles, as (triangle, side), in its order
-  std::vector<std::pair<std::int32_t, int>> drain_sides_;
-  std::vector<std::uint32_t> marks_;  ///< draw_floors(): == mark_ for a triangle in reached_
+  std::vector<std::uint32_t> marks_;       ///< draw_floors(): == mark_ for a triangle in reached_
   std::uint32_t mark_ = 0;
   std::vector<double> ground_;  ///< draw_floors(): each sample's ground, NaN off land
   std::array<std::vector<double>, 3> direction_;  ///< draw_floors(): each sample's direction
