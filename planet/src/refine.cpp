@@ -267,11 +267,16 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
                     m.ground - std::max(def.riverbed_edge_height, l_ab * def.min_riverbed_slope));
   };
 
-  // Metres from m to each corner of the diamond, once m is placed.
+  // Metres from m to each corner of the diamond, once m is placed; the angles are kept for the
+  // rest of the split (SplitResult::corner_angle).
   const Vertex* corner[4] = {&a, &b, &t, &d};
   auto corner_lengths = [&] {
     std::array<double, 4> length{};
-    for (int i = 0; i < 4; ++i) length[i] = rules.radius * angle(m.p, corner[i]->p);
+    for (std::size_t i = 0; i < 4; ++i) {
+      r.corner_angle[i] = angle(m.p, corner[i]->p);
+      length[i] = rules.radius * r.corner_angle[i];
+    }
+    r.corner_angles = true;
     return length;
   };
   // Land: the distance to the coast through the nearest corner, in the vertex's hectometres.
@@ -375,15 +380,14 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       // strictly lower neighbour at every level.
       const double level_a = outflow_level(a), level_b = outflow_level(b);
       const bool a_up = level_a > level_b || (level_a == level_b && a.seed < b.seed);
-      const Vertex& up = a_up ? a : b;
-      const Vertex& down = a_up ? b : a;
       const double high = a_up ? level_a : level_b, low = a_up ? level_b : level_a;
       m.p = place(offset(hung ? kLandOffset * kHangDrainOffset : kLandOffset));
       m.flags = kLand;
       reach_coast(corner_lengths());
       m.detail = static_cast<float>(rules.region(m.p, coast_distance(m)).ruggedness);
+      // The angles from m to the upper end and the lower one (a and b are corners 0 and 1).
+      const double to_up = r.corner_angle[a_up ? 0 : 1], to_down = r.corner_angle[a_up ? 1 : 0];
       if (hung) {  // the split point's share of the drop, so that both halves fall as steeply
-        const double to_up = angle(m.p, up.p), to_down = angle(m.p, down.p);
         m.ground = low + (high - low) * std::clamp(to_down / (to_up + to_down), kDrainMargin,
                                                    1.0 - kDrainMargin);
       } else if (dry_diamond) {
@@ -392,7 +396,6 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
             std::clamp(smooth_ground_at(rules, a, b, t, d, m.p), low + kDrainMargin * (high - low),
                        high - kDrainMargin * (high - low));
       } else {  // the split point's share of the drop follows its place, jittered a little
-        const double to_up = angle(m.p, up.p), to_down = angle(m.p, down.p);
         const double f = std::clamp(to_down / (to_up + to_down) + 0.1 * (2.0 * g1 - 1.0),
                                     kDrainMargin, 1.0 - kDrainMargin);
         m.ground = low + (high - low) * f;
@@ -557,9 +560,13 @@ SplitResult split_diamond(const Rules& rules, int level, const Vertex& a, const 
     // No steeper than its gentlest secant to a lower corner: the cubic of a vertex hung far
     // below a fan of high neighbours would otherwise dip under its own drain a sample away.
     double secant = std::numeric_limits<double>::infinity();
-    for (const Vertex* c : {&ev1, &ev2, &apex1, &apex2}) {
-      const double drop = r.m.ground - outflow_level(*c);
-      if (drop > 0.0) secant = std::min(secant, drop / (rules.radius * angle(r.m.p, c->p)));
+    const std::array<const Vertex*, 4> corner = {&ev1, &ev2, &apex1, &apex2};
+    for (std::size_t i = 0; i < 4; ++i) {
+      const double drop = r.m.ground - outflow_level(*corner[i]);
+      if (!(drop > 0.0)) continue;
+      // split_ordered's corners are these, in this order.
+      const double to = r.corner_angles ? r.corner_angle[i] : angle(r.m.p, corner[i]->p);
+      secant = std::min(secant, drop / (rules.radius * to));
     }
     std::array<float, 3>& slope = ground_slope(r.m);
     const double steepness = std::sqrt(static_cast<double>(slope[0]) * slope[0] +
