@@ -276,7 +276,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       r.corner_angle[i] = angle(m.p, corner[i]->p);
       length[i] = rules.radius * r.corner_angle[i];
     }
-    r.corner_angles = true;
+    r.has_corner_angles = true;
     return length;
   };
   // Land: the distance to the coast through the nearest corner, in the vertex's hectometres.
@@ -565,7 +565,7 @@ SplitResult split_diamond(const Rules& rules, int level, const Vertex& a, const 
       const double drop = r.m.ground - outflow_level(*corner[i]);
       if (!(drop > 0.0)) continue;
       // split_ordered's corners are these, in this order.
-      const double to = r.corner_angles ? r.corner_angle[i] : angle(r.m.p, corner[i]->p);
+      const double to = r.has_corner_angles ? r.corner_angle[i] : angle(r.m.p, corner[i]->p);
       secant = std::min(secant, drop / (rules.radius * to));
     }
     std::array<float, 3>& slope = ground_slope(r.m);

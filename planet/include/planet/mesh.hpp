@@ -174,10 +174,10 @@ struct SplitResult {
   Vertex m;
   EdgeType half_a, half_b;    ///< (ev1, m) and (m, ev2)
   EdgeType spoke_t, spoke_d;  ///< (m, t) and (m, d)
-  /// angle(m.p, X) to ev1, ev2, t and d, where the split computed them (corner_angles): the
+  /// angle(m.p, X) to ev1, ev2, t and d, where the split computed them (has_corner_angles): the
   /// split's callers reuse them instead of calling atan2 again (the same bits).
   std::array<double, 4> corner_angle{};
-  bool corner_angles = false;
+  bool has_corner_angles = false;
 };
 
 /// The split rules of §3.2, §4.1 and §5.3 for the diamond (a, b; t, d): a, b the base's ends, t
