@@ -1,6 +1,7 @@
-// The planet's fractal detail (Planet::detail) for many directions at once: four at a time in
-// AVX2 vectors where the CPU has them, else one by one. Every lane computes what the scalar
-// noise (gradient_noise.hpp) computes, operation for operation, so the sums are the same bits.
+// The planet's gradient noise four at a time: the fractal detail (Planet::detail) for many
+// directions, and the relief regions' fields (Rules::region) at one, in AVX2 vectors where the
+// CPU has them, else one by one. Every lane computes what the scalar noise (gradient_noise.hpp)
+// computes, operation for operation, so the results are the same bits.
 #pragma once
 
 #include <array>

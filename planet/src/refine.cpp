@@ -560,13 +560,13 @@ SplitResult split_diamond(const Rules& rules, int level, const Vertex& a, const 
     // No steeper than its gentlest secant to a lower corner: the cubic of a vertex hung far
     // below a fan of high neighbours would otherwise dip under its own drain a sample away.
     double secant = std::numeric_limits<double>::infinity();
+    // Every dry vertex's split measured its corners, split_ordered's (a, b, t, d), which are
+    // these in this order.
+    assert(r.has_corner_angles);
     const std::array<const Vertex*, 4> corner = {&ev1, &ev2, &apex1, &apex2};
     for (std::size_t i = 0; i < 4; ++i) {
       const double drop = r.m.ground - outflow_level(*corner[i]);
-      if (!(drop > 0.0)) continue;
-      // split_ordered's corners are these, in this order.
-      const double to = r.has_corner_angles ? r.corner_angle[i] : angle(r.m.p, corner[i]->p);
-      secant = std::min(secant, drop / (rules.radius * to));
+      if (drop > 0.0) secant = std::min(secant, drop / (rules.radius * r.corner_angle[i]));
     }
     std::array<float, 3>& slope = ground_slope(r.m);
     const double steepness = std::sqrt(static_cast<double>(slope[0]) * slope[0] +

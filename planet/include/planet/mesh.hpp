@@ -174,8 +174,8 @@ struct SplitResult {
   Vertex m;
   EdgeType half_a, half_b;    ///< (ev1, m) and (m, ev2)
   EdgeType spoke_t, spoke_d;  ///< (m, t) and (m, d)
-  /// angle(m.p, X) to ev1, ev2, t and d, where the split computed them (has_corner_angles): the
-  /// split's callers reuse them instead of calling atan2 again (the same bits).
+  /// angle(m.p, X) to ev1, ev2, t and d, where the split measured them (has_corner_angles:
+  /// every dry vertex's split does): split_diamond reuses them instead of calling atan2 again.
   std::array<double, 4> corner_angle{};
   bool has_corner_angles = false;
 };
