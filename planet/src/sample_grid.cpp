@@ -161,17 +161,39 @@ void Sampler::grid(const SampleGrid& grid, int level, double octaves, const Grid
   assert(std::is_sorted(grid.longitude.begin(), grid.longitude.end()));
   // Once, here: the leaves kept for the floors must outlive every descent of the grid.
   trim_when_large();
-  // Without floors each block is finished as soon as it is sampled (a tile's worth of pending
-  // samples is megabytes that a block's are not, and fresh megabytes cost page faults); with
-  // them every sample waits for the floors.
+  // Without floors each block is finished as soon as it is sampled (a tile's pending samples are
+  // megabytes that a block's are not). With them, a band of kFloorBandRows rows waits for its
+  // floors and is finished together: a sample's floors are those of the drain edges within reach
+  // of it, whichever grid draws them, so a band is a grid of its own and gives the same bits. A
+  // band's pending samples and packed arrays (about a megabyte) stay nearer the core than a
+  // whole tile's (eight times that); the drain edges near a band's first and last rows are found
+  // and set up for both bands beside them.
   const bool floors = drainage_floors();
+  const int band = floors ? kFloorBandRows : grid.rows;
+  for (int r0 = 0; r0 < grid.rows; r0 += band) {
+    const auto first = static_cast<std::size_t>(r0);
+    const auto rows = static_cast<std::size_t>(std::min(band, grid.rows - r0));
+    const SampleGrid part{static_cast<int>(rows),
+                          grid.cols,
+                          grid.latitude.subspan(first, rows),
+                          grid.longitude,
+                          grid.sin_lat.subspan(first, rows),
+                          grid.cos_lat.subspan(first, rows),
+                          grid.sin_lon,
+                          grid.cos_lon};
+    grid_rows(part, first * static_cast<std::size_t>(grid.cols), level, octaves, floors, out);
+  }
+}
+
+void Sampler::grid_rows(const SampleGrid& grid, std::size_t base, int level, double octaves,
+                        bool floors, const GridSink& out) {
   pending_.clear();
   order_.clear();
   leaves_.clear();
   pending_directions_.clear();
   if (floors) {
-    // Every sample waits: room for all at once, or a fresh sampler copies them as they grow
-    // (and touches twice the pages).
+    // Every sample of the band waits: room for all at once, or a fresh sampler copies them as
+    // they grow (and touches twice the pages).
     const std::size_t count =
         static_cast<std::size_t>(grid.rows) * static_cast<std::size_t>(grid.cols);
     pending_.reserve(count);
@@ -217,7 +239,8 @@ void Sampler::grid(const SampleGrid& grid, int level, double octaves, const Grid
           const Vec3d p = direction(r, c);
           const std::int32_t leaf = descend(p, level, start);
           if (floors) leaves_.push_back(leaf);
-          order_.push_back(static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols) +
+          order_.push_back(base +
+                           static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols) +
                            static_cast<std::size_t>(c));
           pending_directions_.push_back(p);
           pending_.push_back(undetailed(leaf, p, level, false));
@@ -227,7 +250,7 @@ void Sampler::grid(const SampleGrid& grid, int level, double octaves, const Grid
     }
   }
   if (floors) {
-    draw_floors(grid, level);
+    draw_floors(grid, base, level);
     finish_pending(octaves, out);
   }
 }
@@ -253,7 +276,7 @@ void Sampler::finish_pending(double octaves, const GridSink& out) {
   pending_directions_.clear();
 }
 
-void Sampler::draw_floors(const SampleGrid& grid, int level) {
+void Sampler::draw_floors(const SampleGrid& grid, std::size_t base, int level) {
   const std::size_t count = pending_.size();
   if (std::none_of(pending_.begin(), pending_.end(),
                    [](const Undetailed& s) { return s.face == FaceType::land; })) {
@@ -269,7 +292,7 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
   ground_.assign(count + kLanes, nan);
   for (std::vector<double>& axis : direction_) axis.assign(count + kLanes, 0.0);
   for (std::size_t k = 0; k < count; ++k) {
-    const std::size_t i = order_[k];
+    const std::size_t i = order_[k] - base;
     for (std::size_t j = 0; j < 3; ++j) direction_[j][i] = pending_directions_[k][j];
     if (pending_[k].face == FaceType::land) ground_[i] = pending_[k].out.ground;
   }
@@ -395,7 +418,8 @@ void Sampler::draw_floors(const SampleGrid& grid, int level) {
     }
   }
   for (std::size_t k = 0; k < count; ++k) {
-    if (!std::isnan(floor_[order_[k]])) pending_[k].out.ground = floor_[order_[k]];
+    const double lowest = floor_[order_[k] - base];
+    if (!std::isnan(lowest)) pending_[k].out.ground = lowest;
   }
 }
 
