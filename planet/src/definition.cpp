@@ -68,6 +68,22 @@ const std::vector<NumberField>& number_fields() {
   return table;
 }
 
+struct IntegerField {
+  const char* name;
+  int PlanetDefinition::*member;
+  int lo, hi;
+  bool written_when_set = false;  ///< as NumberField's
+};
+
+const std::vector<IntegerField>& integer_fields() {
+  static const std::vector<IntegerField> table = {
+      {"continents", &PlanetDefinition::continents, 1, 64},
+      {"base_faces", &PlanetDefinition::base_faces, 64, 65536},
+      {"lakes", &PlanetDefinition::lakes, 0, kMaxLakes, true},
+  };
+  return table;
+}
+
 const std::vector<DetailField>& detail_fields() {
   static const std::vector<DetailField> table = {
       {"amplitude", &DetailParams::amplitude, 0.0, 5000.0, false},
@@ -147,22 +163,12 @@ Result<PlanetDefinition> parse_planet(const nlohmann::json& document) {
       d.seed = value.get<std::uint64_t>();
       continue;
     }
-    if (key == "continents") {
-      Result<int> n = read_int(value, pointer, 1, 64);
+    const auto integer = std::find_if(integer_fields().begin(), integer_fields().end(),
+                                      [&](const IntegerField& f) { return key == f.name; });
+    if (integer != integer_fields().end()) {
+      Result<int> n = read_int(value, pointer, integer->lo, integer->hi);
       if (!n) return n.error();
-      d.continents = *n;
-      continue;
-    }
-    if (key == "base_faces") {
-      Result<int> n = read_int(value, pointer, 64, 65536);
-      if (!n) return n.error();
-      d.base_faces = *n;
-      continue;
-    }
-    if (key == "lakes") {
-      Result<int> n = read_int(value, pointer, 0, kMaxLakes);
-      if (!n) return n.error();
-      d.lakes = *n;
+      d.*(integer->member) = *n;
       continue;
     }
     if (key == "relief_model") {
@@ -254,10 +260,11 @@ namespace {
 nlohmann::json fields_json(const PlanetDefinition& d, bool every_field) {
   nlohmann::json out = nlohmann::json::object();
   out["seed"] = d.seed;
-  out["continents"] = d.continents;
-  out["base_faces"] = d.base_faces;
   static const PlanetDefinition defaults;
-  if (every_field || d.lakes != defaults.lakes) out["lakes"] = d.lakes;
+  for (const IntegerField& f : integer_fields()) {
+    if (!every_field && f.written_when_set && d.*(f.member) == defaults.*(f.member)) continue;
+    out[f.name] = d.*(f.member);
+  }
   if (every_field || d.relief_model != defaults.relief_model) {
     out["relief_model"] = relief_model_name(d.relief_model);
   }
@@ -283,6 +290,21 @@ nlohmann::json canonical_json(const PlanetDefinition& d) {
 
 nlohmann::json definition_defaults() {
   return fields_json(PlanetDefinition{}, true);
+}
+
+std::vector<FieldRange> numeric_field_ranges() {
+  std::vector<FieldRange> ranges;
+  for (const NumberField& f : number_fields()) {
+    ranges.push_back({std::string("/") + f.name, f.lo, f.hi, f.lo_open, false});
+  }
+  for (const DetailField& f : detail_fields()) {
+    ranges.push_back({std::string("/detail/") + f.name, f.lo, f.hi, f.lo_open, false});
+  }
+  for (const IntegerField& f : integer_fields()) {
+    ranges.push_back({std::string("/") + f.name, static_cast<double>(f.lo),
+                      static_cast<double>(f.hi), false, true});
+  }
+  return ranges;
 }
 
 std::string canonical_text(const PlanetDefinition& d) {

@@ -12,8 +12,12 @@
 
 namespace planet::detail {
 
-/// The octaves of one sum: k from `first` while k < 40 and k < `octaves` (the last one faded in
-/// by its fractional part), octave `first` with `amplitude` and `frequency`, each next one
+/// No sum goes past this many octaves (the finest a tile asks for is far coarser), so every
+/// sum is bounded even where the gain is 1 (Planet's elevation range counts on it).
+inline constexpr int kMaxOctaves = 40;
+
+/// The octaves of one sum: k from `first` while k < kMaxOctaves and k < `octaves` (the last one
+/// faded in by its fractional part), octave `first` with `amplitude` and `frequency`, each next one
 /// `gain` times as high and `lacunarity` times as fine, octave k's noise seeded with
 /// seed + k·0x9e3779b9.
 struct DetailOctaves {
@@ -24,7 +28,7 @@ struct DetailOctaves {
   std::uint32_t seed = 0;
 
   /// Whether octave k is summed (k ≥ first).
-  bool covers(int k) const { return k < 40 && k < octaves; }
+  bool covers(int k) const { return k < kMaxOctaves && k < octaves; }
 };
 
 /// Σ_k weight_k · a_k · (1 + clamp(S(p f_k), −1, 1)) / 2 at one direction.

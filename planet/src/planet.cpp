@@ -42,7 +42,7 @@ Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options,
   first_detail_amplitude_ = d.detail.amplitude;
   first_detail_frequency_ = d.radius / d.detail.wavelength;
   for (double wavelength = d.detail.wavelength;
-       wavelength >= d.finest_edge && first_detail_octave_ < 40;
+       wavelength >= d.finest_edge && first_detail_octave_ < detail::kMaxOctaves;
        wavelength /= d.detail.lacunarity) {
     ++first_detail_octave_;
     first_detail_amplitude_ *= detail_gain_;
@@ -50,10 +50,15 @@ Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options,
   }
   // Every octave's amplitude summed, or the noise's own octaves at the largest ruggedness (the
   // detail's weight) if that is more: by default the first, since the noise carries only the
-  // octaves shorter than finest_edge, about a tenth of a metre.
-  const double detail_max =
-      std::max(d.detail.amplitude, base_->rules.max_ruggedness() * first_detail_amplitude_) /
-      (1.0 - detail_gain_);
+  // octaves shorter than finest_edge, about a tenth of a metre. Summed up to the last octave
+  // any sum takes, not as a geometric series: a Hurst exponent as small as the definition
+  // accepts (5e-324) makes the gain 1, and the series' 1 / (1 − gain) infinite.
+  double every_octave = 0.0, noise_octaves = 0.0, amplitude = d.detail.amplitude;
+  for (int k = 0; k < detail::kMaxOctaves; ++k, amplitude *= detail_gain_) {
+    every_octave += amplitude;
+    if (k >= first_detail_octave_) noise_octaves += amplitude;
+  }
+  const double detail_max = std::max(every_octave, base_->rules.max_ruggedness() * noise_octaves);
   elevation_range_ = {
       static_cast<float>(std::floor(d.sea_level - d.sea_depth)),
       static_cast<float>(std::ceil(d.sea_level + d.max_mountain_altitude + detail_max))};
@@ -110,7 +115,7 @@ double Planet::octaves_for_spacing(double spacing) const {
   // Octave k has wavelength λ/r^k; it is visible while that is at least two samples.
   const double n =
       std::log(d.wavelength / (2.0 * std::max(spacing, 1e-6))) / std::log(d.lacunarity);
-  return std::clamp(n + 1.0, 0.0, 40.0);
+  return std::clamp(n + 1.0, 0.0, static_cast<double>(detail::kMaxOctaves));
 }
 
 double Planet::ground_spacing(int z, int cells) const {

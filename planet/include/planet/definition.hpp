@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -117,6 +118,18 @@ Result<PlanetDefinition> parse_planet(const nlohmann::json& document);
 Result<PlanetDefinition> parse_planet_text(std::string_view text);
 /// Reads a definition file.
 Result<PlanetDefinition> load_planet_file(const std::string& path);
+
+/// A numeric field's accepted range, as the parser checks it: a value outside it is refused
+/// naming `pointer`. Relations between fields (sea_depth above river_depth, …) come on top.
+struct FieldRange {
+  std::string pointer;  ///< "/radius", "/detail/hurst"
+  double lo = 0.0, hi = 0.0;
+  bool lo_open = false;  ///< lo itself is refused: the value must exceed it
+  bool integer = false;
+};
+/// Every numeric field but the seed (any unsigned 64-bit integer), from the tables that parse
+/// them, so whatever probes the ranges (tests/planet/definition_test.cpp) follows new fields.
+std::vector<FieldRange> numeric_field_ranges();
 
 /// Every field explicit, except continent_map, written only when set, and material,
 /// min_drain_slope, the relief fields (relief_model included), lakes and aridity, written only
