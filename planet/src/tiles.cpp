@@ -232,6 +232,12 @@ Result<terrain::Product> PlanetTiles::make(TileScheme scheme, const TileAddress&
                                            TileFormat format,
                                            const terrain::ProductOptions& options) {
   if (terrain::Status s = validate(scheme, address, format, options); !s) return s.error();
+  const terrain::ProductConstants constants = constants_at(address.z);
+  if (terrain::Status s = terrain::check_mesh_lattice(
+          format, planet().ground_spacing(address.z, options.grid - 1), constants.position_quantum);
+      !s) {
+    return s.error();
+  }
   terrain::ProductExtras extras;
   // Colour tiles show the water of their own samples, sea and rivers, and beaches above sea
   // level: a wet sample's surface is +∞ (drawn as water; its level is not needed), a dry one's
@@ -267,9 +273,11 @@ Result<terrain::Product> PlanetTiles::make(TileScheme scheme, const TileAddress&
               .dump();
     }
   }
+  // The request was validated: what the encoders refuse now is a fault of this module's.
   Result<terrain::Product> product = terrain::encode_product(
-      *tile, format, options, constants_at(address.z), terrain::Georeference{}, std::move(extras));
-  if (product) product->backend = "cpu (planet)";
+      *tile, format, options, constants, terrain::Georeference{}, std::move(extras));
+  if (!product) return terrain::internal_error(product.error());
+  product->backend = "cpu (planet)";
   return product;
 }
 

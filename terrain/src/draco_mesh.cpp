@@ -21,7 +21,9 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -97,7 +99,22 @@ Result<EncodedTile> encode_tile(const HeightTile& tile, const TileMesh& mesh,
     return Error{"vertex " + std::to_string(v) + " is in no triangle",
                  "/mesh/vertices/" + std::to_string(v)};
   }
-  if (Status s = add_skirts(g, options.skirt_height); !s) {
+  // Skirts reach no deeper than the lattice spans below the tile's own relief: a mesh simplified
+  // by kilometres asks for kilometres of skirt, which would take its positions past the 2^23
+  // quanta a tile may span. The 4 quanta spare cover the snapping of both ends.
+  double skirt_height = options.skirt_height;
+  if (skirt_height > 0.0) {
+    double lowest = std::numeric_limits<double>::infinity(), highest = -lowest;
+    for (const std::array<double, 3>& p : g.positions) {
+      lowest = std::min(lowest, p[2]);
+      highest = std::max(highest, p[2]);
+    }
+    const double q = options.position_quantum;
+    const double room =
+        q * static_cast<double>((std::int64_t{1} << kMaxPositionBits) - 4) - (highest - lowest);
+    if (room >= q) skirt_height = std::min(skirt_height, room);
+  }
+  if (Status s = add_skirts(g, skirt_height); !s) {
     return Error{s.error().message, "/mesh" + s.error().pointer};
   }
 

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
+#include <string>
 
 #include "terrain/draco_mesh.hpp"
 #include "terrain/gzip.hpp"
@@ -102,6 +104,20 @@ TileRequest ProductMaker::request_for(TileScheme scheme, const TileAddress& addr
   return {scheme, address, SampleLayout::cell_centres, options.size, options.border ? 1 : 0};
 }
 
+Status check_mesh_lattice(TileFormat format, double spacing, double quantum) {
+  if (format != TileFormat::glb && format != TileFormat::draco) return Ok{};
+  if (spacing >= quantum) return Ok{};
+  const auto metres = [](double v) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.3g m", v);
+    return std::string(text);
+  };
+  return Error{"glTF and Draco tiles snap positions to a lattice of " + metres(quantum) +
+                   ", and this zoom and grid put samples " + metres(spacing) +
+                   " apart: ask for a shallower zoom or a smaller grid",
+               "/z"};
+}
+
 Status ProductMaker::validate(TileScheme scheme, const TileAddress& address, TileFormat format,
                               const ProductOptions& options) const {
   // Address and sizes are the sampler's to check; only what is particular to meshes is here.
@@ -113,7 +129,9 @@ Status ProductMaker::validate(TileScheme scheme, const TileAddress& address, Til
   if (format == TileFormat::quantized_mesh && scheme != TileScheme::geographic) {
     return Error{"quantized-mesh tiles exist in the geographic scheme only (Cesium's)", "/scheme"};
   }
-  return Ok{};
+  return check_mesh_lattice(
+      format, ground_spacing(generator_.source(), scheme, address.z, options.grid - 1),
+      constants_.position_quantum);
 }
 
 Result<HeightTile> ProductMaker::height_tile(TileScheme scheme, const TileAddress& address,
@@ -229,8 +247,10 @@ Result<Product> encode_product(const HeightTile& tile, TileFormat format,
       DracoOptions draco;
       draco.position_quantum = constants.position_quantum;
       const double max_error = options.max_error.value_or(0.25 * tile.ground_spacing);
-      // Skirts deep enough to hide the largest step between neighbours of adjacent levels.
-      draco.skirt_height = std::max(5.0 * max_error, 1.0);
+      // Skirts deep enough to hide the largest step between neighbours of adjacent levels, and
+      // at least a quantum (a planet's coarse zooms have quanta of metres), or they would snap
+      // onto the surface.
+      draco.skirt_height = std::max({5.0 * max_error, 1.0, constants.position_quantum});
       const TileMesh mesh = triangulate_for(tile, options, format);
       bytes = format == TileFormat::glb ? encode_glb(tile, mesh, draco)
                                         : encode_draco(tile, mesh, draco);

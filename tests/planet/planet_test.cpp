@@ -905,6 +905,41 @@ TEST(PlanetTiles, BadRequestsAreRefusedNamingTheField) {
   EXPECT_EQ(mesh.error().pointer, "/scheme");
 }
 
+// glTF and Draco tiles on a planet's lattice (a quantum of metres at zoom 0): skirts at least a
+// quantum deep however small max_error is, shortened to fit however large it is (both were
+// refused), and a small planet's deep zooms refused naming the zoom where samples would be
+// closer than the lattice.
+TEST(PlanetTiles, MeshesFitThePositionLatticeOrAreRefusedNamingTheZoom) {
+  PlanetTiles tiles(shared_planet());
+  terrain::ProductOptions exact, loosest;
+  exact.max_error = 0.0;
+  loosest.max_error = 1e6;
+  for (const TileFormat format : {TileFormat::glb, TileFormat::draco}) {
+    for (const TileAddress& address : {TileAddress{0, 0, 0}, TileAddress{7, 200, 90}}) {
+      for (const terrain::ProductOptions& options : {exact, loosest}) {
+        const Result<terrain::Product> p = tiles.make(address, format, options);
+        EXPECT_TRUE(p.ok()) << "zoom " << address.z << ": " << p.error().message;
+      }
+    }
+  }
+  PlanetDefinition small_definition = default_definition();
+  small_definition.radius = 1000.0;
+  PlanetTiles small(Planet::create(small_definition));
+  int deepest = 0;
+  while (deepest < PlanetTiles::max_zoom() &&
+         small.planet().ground_spacing(deepest + 1, 64) >=
+             small.constants_at(deepest + 1).position_quantum) {
+    ++deepest;
+  }
+  ASSERT_LT(deepest, PlanetTiles::max_zoom());
+  const Result<terrain::Product> served = small.make({deepest, 0, 0}, TileFormat::glb);
+  EXPECT_TRUE(served.ok()) << served.error().message;
+  const Result<terrain::Product> deeper = small.make({deepest + 1, 0, 0}, TileFormat::glb);
+  ASSERT_FALSE(deeper.ok());
+  EXPECT_EQ(deeper.error().pointer, "/z") << deeper.error().message;
+  EXPECT_EQ(deeper.error().kind, terrain::ErrorKind::invalid);
+}
+
 // MapLibre reads EPSG:3857 only: a Web Mercator tile's samples are the planet at their own
 // longitude and latitude, at the level of detail of the tile's spacing, and neighbours agree on
 // the ring of samples they share.

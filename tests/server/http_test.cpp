@@ -738,6 +738,9 @@ TEST_F(HttpApi, MalformedTileRequestsAre400Or404WithAPointer) {
       {s + "/mesh/0/0/0.glb?grid=66", 400, "/grid"},
       {s + "/mesh/0/0/0.glb?max_error=nan", 400, "/max_error"},
       {s + "/mesh/0/0/0.glb?max_error=1e999", 400, "/max_error"},
+      // Samples closer than the glTF/Draco position lattice (a 500 before 2026-12-07).
+      {s + "/mesh/24/0/0.glb", 400, "/z"},
+      {s + "/mesh/24/0/0.drc?grid=3", 400, "/z"},
       {s + "/mesh/24/0/0.terrain", 400, "/z"},
       {s + "/mesh/0/2/0.terrain", 400, "/x"},
       {s + "/sample?x=abc&y=0", 400, "/x"},

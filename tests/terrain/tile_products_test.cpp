@@ -13,6 +13,7 @@
 #include "terrain/gzip.hpp"
 #include "terrain/image_io.hpp"
 #include "terrain/tile_products.hpp"
+#include "terrain/tile_source.hpp"
 
 namespace terrain {
 namespace {
@@ -251,6 +252,47 @@ TEST(TileProductErrors, NameTheOffendingField) {
   EXPECT_EQ(parse_tile_format("glb", "terrarium").error().pointer, "/encoding");
   EXPECT_EQ(*parse_tile_format("png"), TileFormat::terrain_rgb);
   EXPECT_EQ(*parse_tile_format("png", "hillshade"), TileFormat::hillshade);
+}
+
+// glTF and Draco tiles snap to the scene's position lattice: the deepest zoom whose samples are a
+// quantum apart is served, the next one refused naming the zoom (it was a 500: two vertices
+// merged), and a smaller grid there is served again.
+TEST(TileProductErrors, MeshesFinerThanThePositionLatticeAreRefusedNamingTheZoom) {
+  ProductMaker& m = maker("butte");
+  const double q = m.constants().position_quantum;
+  const int deepest_scheme_zoom = max_zoom(TileScheme::local);
+  int deepest = 0;
+  while (deepest < deepest_scheme_zoom &&
+         ground_spacing(m.source(), TileScheme::local, deepest + 1, 64) >= q) {
+    ++deepest;
+  }
+  ASSERT_LT(deepest, deepest_scheme_zoom) << "the lattice binds at no zoom of the local scheme";
+  ProductOptions coarser;
+  coarser.grid = 33;
+  for (const TileFormat format : {TileFormat::glb, TileFormat::draco}) {
+    const Result<Product> served = m.make(TileScheme::local, {deepest, 0, 0}, format);
+    EXPECT_TRUE(served.ok()) << served.error().message;
+    const Result<Product> deeper = m.make(TileScheme::local, {deepest + 1, 0, 0}, format);
+    ASSERT_FALSE(deeper.ok());
+    EXPECT_EQ(deeper.error().pointer, "/z") << deeper.error().message;
+    EXPECT_EQ(deeper.error().kind, ErrorKind::invalid);
+    const Result<Product> smaller = m.make(TileScheme::local, {deepest + 1, 0, 0}, format, coarser);
+    EXPECT_TRUE(smaller.ok()) << smaller.error().message;
+  }
+  // Height images have no lattice.
+  EXPECT_TRUE(m.make(TileScheme::local, {deepest + 1, 0, 0}, TileFormat::terrain_rgb).ok());
+}
+
+// The loosest mesh a request may ask for (max_error 1e6 m) wants skirts five times that deep,
+// more than a tile's 2^23 quanta: they are shortened to fit, not refused (that was a 500).
+TEST(TileProducts, MeshesAtTheLargestMaxErrorAreMade) {
+  ProductMaker& m = maker("craters");
+  ProductOptions loosest;
+  loosest.max_error = 1e6;
+  for (const TileFormat format : {TileFormat::glb, TileFormat::draco}) {
+    const Result<Product> p = m.make(TileScheme::local, {0, 0, 0}, format, loosest);
+    EXPECT_TRUE(p.ok()) << p.error().message;
+  }
 }
 
 TEST(LayerJson, ListsTheRootsAndTheScenesTiles) {

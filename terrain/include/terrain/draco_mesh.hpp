@@ -20,6 +20,7 @@ struct DracoOptions {
   /// Bits per octahedral coordinate of the normals, 2..16 (10: error below 0.2°).
   int normal_bits = 10;
   /// Depth of the skirt below the boundary vertices in metres; 0 for none, else at least Q.
+  /// Shortened where it would take the tile's positions past 2^23 − 1 quanta.
   double skirt_height = 0.0;
   /// Draco's compression level, 0 (fastest) … 10 (smallest): speed options 10 − level.
   int compression_level = 7;

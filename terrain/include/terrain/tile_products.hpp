@@ -128,6 +128,11 @@ struct ProductExtras {
   std::vector<float> polar;          ///< colour tiles: ColorTileInputs::polar
 };
 
+/// glTF and Draco tiles snap their positions to a lattice of `quantum` metres, so samples
+/// `spacing` metres apart, closer than that, would merge: such a request is refused naming "/z"
+/// (a shallower zoom or a smaller grid is what helps). Other formats pass.
+Status check_mesh_lattice(TileFormat format, double spacing, double quantum);
+
 /// Encodes a height tile in `format` with a source's constants: the part of ProductMaker::make
 /// after the heights are known, for any source of height tiles. The tile must have the layout
 /// and size the format asks for (ProductMaker's request for the same options). Meshes use
