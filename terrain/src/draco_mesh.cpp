@@ -110,8 +110,7 @@ Result<EncodedTile> encode_tile(const HeightTile& tile, const TileMesh& mesh,
       highest = std::max(highest, p[2]);
     }
     const double q = options.position_quantum;
-    const double room =
-        q * static_cast<double>((std::int64_t{1} << kMaxPositionBits) - 4) - (highest - lowest);
+    const double room = q * static_cast<double>(kMaxPositionQuanta - 3) - (highest - lowest);
     if (room >= q) skirt_height = std::min(skirt_height, room);
   }
   if (Status s = add_skirts(g, skirt_height); !s) {

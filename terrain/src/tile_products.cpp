@@ -118,6 +118,24 @@ Status check_mesh_lattice(TileFormat format, double spacing, double quantum) {
                "/z"};
 }
 
+Status check_mesh_extent(const HeightTile& tile, TileFormat format, double quantum) {
+  if (format != TileFormat::glb && format != TileFormat::draco) return Ok{};
+  const auto span = [](const std::vector<double>& v) {
+    const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+    return v.empty() ? 0.0 : *hi - *lo;
+  };
+  const double widest = std::max(span(tile.scene_x), span(tile.scene_y));
+  // A few quanta spare for snapping both ends.
+  if (widest <= quantum * static_cast<double>(kMaxPositionQuanta - 4)) return Ok{};
+  char text[160];
+  std::snprintf(text, sizeof text,
+                "a glTF or Draco tile spans at most 2^23 quanta of %.3g m (%.4g km), and this "
+                "zoom's tile spans %.4g km: ask for a deeper zoom",
+                quantum, quantum * static_cast<double>(kMaxPositionQuanta) / 1000.0,
+                widest / 1000.0);
+  return Error{text, "/z"};
+}
+
 Status ProductMaker::validate(TileScheme scheme, const TileAddress& address, TileFormat format,
                               const ProductOptions& options) const {
   // Address and sizes are the sampler's to check; only what is particular to meshes is here.
@@ -285,6 +303,9 @@ Result<Product> ProductMaker::make(TileScheme scheme, const TileAddress& address
                                                 extras.water_surface, constants_.shore_band)
             : generator_.height_tile(request_for(scheme, address, format, options));
   if (!generated) return generated.error();
+  if (Status s = check_mesh_extent(*generated, format, constants_.position_quantum); !s) {
+    return s.error();
+  }
   if (format == TileFormat::quantized_mesh) {
     if (options.watermask) {
       Result<std::vector<std::uint8_t>> mask = generator_.water_mask(scheme, address);

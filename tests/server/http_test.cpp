@@ -741,6 +741,7 @@ TEST_F(HttpApi, MalformedTileRequestsAre400Or404WithAPointer) {
       // Samples closer than the glTF/Draco position lattice (a 500 before 2026-12-07).
       {s + "/mesh/24/0/0.glb", 400, "/z"},
       {s + "/mesh/24/0/0.drc?grid=3", 400, "/z"},
+      {s + "/mesh/0/0/0.glb?scheme=webmercator", 400, "/z"},  // wider than the lattice
       {s + "/mesh/24/0/0.terrain", 400, "/z"},
       {s + "/mesh/0/2/0.terrain", 400, "/x"},
       {s + "/sample?x=abc&y=0", 400, "/x"},

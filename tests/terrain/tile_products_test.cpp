@@ -283,6 +283,26 @@ TEST(TileProductErrors, MeshesFinerThanThePositionLatticeAreRefusedNamingTheZoom
   EXPECT_TRUE(m.make(TileScheme::local, {deepest + 1, 0, 0}, TileFormat::terrain_rgb).ok());
 }
 
+// A small scene's lattice spans 2^23 quanta of 7.8 mm, 65 km: the Web Mercator and geographic
+// tiles of coarse zooms, projected into the scene's frame, are wider, and are refused naming the
+// zoom (they were a 500); the tiles over the scene at its deepest useful zoom are served.
+TEST(TileProductErrors, MeshesWiderThanThePositionLatticeAreRefusedNamingTheZoom) {
+  ProductMaker& m = maker("butte");
+  for (const TileScheme scheme : {TileScheme::webmercator, TileScheme::geographic}) {
+    for (const int z : {0, m.constants().max_useful_zoom[static_cast<int>(scheme)]}) {
+      const TileRange over = tiles_covering_area(m.source(), scheme, z);
+      const Result<Product> p = m.make(scheme, {z, over.min_x, over.min_y}, TileFormat::glb);
+      if (z == 0) {
+        ASSERT_FALSE(p.ok());
+        EXPECT_EQ(p.error().pointer, "/z") << p.error().message;
+        EXPECT_EQ(p.error().kind, ErrorKind::invalid);
+      } else {
+        EXPECT_TRUE(p.ok()) << "zoom " << z << ": " << p.error().message;
+      }
+    }
+  }
+}
+
 // The loosest mesh a request may ask for (max_error 1e6 m) wants skirts five times that deep,
 // more than a tile's 2^23 quanta: they are shortened to fit, not refused (that was a 500).
 TEST(TileProducts, MeshesAtTheLargestMaxErrorAreMade) {

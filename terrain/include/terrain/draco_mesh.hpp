@@ -26,6 +26,10 @@ struct DracoOptions {
   int compression_level = 7;
 };
 
+/// The most quanta a tile's positions may span along one axis: from 2^23 on, the float Draco
+/// quantises in has no bit left for its half-step rounding.
+inline constexpr std::int64_t kMaxPositionQuanta = (std::int64_t{1} << 23) - 1;
+
 /// The position quantum for a scene: the largest power of two not above one centimetre (2^-7 m),
 /// doubled until the larger of the scene's horizontal extent and elevation range (metres, skirts
 /// included) spans at most 2^22 quanta, half the 2^23 a tile may span, which leaves room for

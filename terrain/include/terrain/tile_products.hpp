@@ -133,6 +133,12 @@ struct ProductExtras {
 /// (a shallower zoom or a smaller grid is what helps). Other formats pass.
 Status check_mesh_lattice(TileFormat format, double spacing, double quantum);
 
+/// The same lattice spans at most 2^23 − 1 quanta along an axis of one tile (the encoder's
+/// limit, draco_mesh.hpp), and a coarse tile of the geographic or Web Mercator scheme projected
+/// into a scene's frame spans far more: such a tile is refused naming "/z" (a deeper zoom's
+/// tiles fit). Other formats pass.
+Status check_mesh_extent(const HeightTile& tile, TileFormat format, double quantum);
+
 /// Encodes a height tile in `format` with a source's constants: the part of ProductMaker::make
 /// after the heights are known, for any source of height tiles. The tile must have the layout
 /// and size the format asks for (ProductMaker's request for the same options). Meshes use
