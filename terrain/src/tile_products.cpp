@@ -18,6 +18,22 @@ bool is_mesh(TileFormat format) {
   return format_info(format).mesh;
 }
 
+// glTF and Draco tiles, whose positions snap to the lattice of draco_mesh.hpp.
+bool on_position_lattice(TileFormat format) {
+  return format == TileFormat::glb || format == TileFormat::draco;
+}
+
+// A length for a message: "0.00781 m", "65.5 km".
+std::string length_text(double metres) {
+  char text[32];
+  if (std::abs(metres) >= 1000.0) {
+    std::snprintf(text, sizeof text, "%.3g km", metres / 1000.0);
+  } else {
+    std::snprintf(text, sizeof text, "%.3g m", metres);
+  }
+  return text;
+}
+
 constexpr TileScheme kSchemes[] = {TileScheme::local, TileScheme::webmercator,
                                    TileScheme::geographic};
 
@@ -105,35 +121,27 @@ TileRequest ProductMaker::request_for(TileScheme scheme, const TileAddress& addr
 }
 
 Status check_mesh_lattice(TileFormat format, double spacing, double quantum) {
-  if (format != TileFormat::glb && format != TileFormat::draco) return Ok{};
-  if (spacing >= quantum) return Ok{};
-  const auto metres = [](double v) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%.3g m", v);
-    return std::string(text);
-  };
-  return Error{"glTF and Draco tiles snap positions to a lattice of " + metres(quantum) +
-                   ", and this zoom and grid put samples " + metres(spacing) +
+  if (!on_position_lattice(format) || spacing >= quantum) return Ok{};
+  return Error{"glTF and Draco tiles snap positions to a lattice of " + length_text(quantum) +
+                   ", and this zoom and grid put samples " + length_text(spacing) +
                    " apart: ask for a shallower zoom or a smaller grid",
                "/z"};
 }
 
 Status check_mesh_extent(const HeightTile& tile, TileFormat format, double quantum) {
-  if (format != TileFormat::glb && format != TileFormat::draco) return Ok{};
+  if (!on_position_lattice(format)) return Ok{};
   const auto span = [](const std::vector<double>& v) {
     const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
     return v.empty() ? 0.0 : *hi - *lo;
   };
   const double widest = std::max(span(tile.scene_x), span(tile.scene_y));
-  // A few quanta spare for snapping both ends.
-  if (widest <= quantum * static_cast<double>(kMaxPositionQuanta - 4)) return Ok{};
-  char text[160];
-  std::snprintf(text, sizeof text,
-                "a glTF or Draco tile spans at most 2^23 quanta of %.3g m (%.4g km), and this "
-                "zoom's tile spans %.4g km: ask for a deeper zoom",
-                quantum, quantum * static_cast<double>(kMaxPositionQuanta) / 1000.0,
-                widest / 1000.0);
-  return Error{text, "/z"};
+  // 4 quanta spare for snapping both ends, as the encoder leaves below a tile's skirts.
+  const double room = quantum * static_cast<double>(kMaxPositionQuanta - 3);
+  if (widest <= room) return Ok{};
+  return Error{"a glTF or Draco tile spans at most 2^23 quanta of " + length_text(quantum) + " (" +
+                   length_text(room) + "), and this zoom's tile spans " + length_text(widest) +
+                   ": ask for a deeper zoom",
+               "/z"};
 }
 
 Status ProductMaker::validate(TileScheme scheme, const TileAddress& address, TileFormat format,

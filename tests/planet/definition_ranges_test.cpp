@@ -64,11 +64,10 @@ TEST(PlanetDefinitionRanges, EveryNumericFieldIsListedOnce) {
 
 TEST(PlanetDefinitionRanges, ValuesJustOutsideARangeAreRefusedNamingTheField) {
   for (const FieldRange& range : numeric_field_ranges()) {
-    const double step = range.integer ? 1.0 : 0.0;
-    const double below =
-        range.lo_open ? range.lo
-                      : (range.integer ? range.lo - step : std::nextafter(range.lo, -HUGE_VAL));
-    const double above = range.integer ? range.hi + step : std::nextafter(range.hi, HUGE_VAL);
+    const double below = range.lo_open   ? range.lo
+                         : range.integer ? range.lo - 1.0
+                                         : std::nextafter(range.lo, -HUGE_VAL);
+    const double above = range.integer ? range.hi + 1.0 : std::nextafter(range.hi, HUGE_VAL);
     for (const double value : {below, above}) {
       const nlohmann::json document = definition_with(range, value);
       const Result<PlanetDefinition> parsed = parse_planet(document);

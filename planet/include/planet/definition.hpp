@@ -128,7 +128,8 @@ struct FieldRange {
   bool integer = false;
 };
 /// Every numeric field but the seed (any unsigned 64-bit integer), from the tables that parse
-/// them, so whatever probes the ranges (tests/planet/definition_test.cpp) follows new fields.
+/// them, so whatever probes the ranges (tests/planet/definition_ranges_test.cpp) follows new
+/// fields.
 std::vector<FieldRange> numeric_field_ranges();
 
 /// Every field explicit, except continent_map, written only when set, and material,
