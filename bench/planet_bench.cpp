@@ -105,6 +105,25 @@ void BM_PlanetTile(benchmark::State& state) {
 }
 BENCHMARK(BM_PlanetTile)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond);
 
+// A fresh zoom-18 tile with a corner at one of the octahedron's six vertices, north-east of
+// those on the equator (0°, 90° E, 180°, 90° W), and a needle-thin tile of each pole's row:
+// where tiles took seconds while the base shape drifted towards the vertices and a grid beside
+// a pole found its rows by z alone (planet.md "Tiles at the octahedron's vertices"). Compare
+// BM_PlanetTile/18, a fresh tile on plain land.
+void BM_PlanetTileAtOctahedronVertex(benchmark::State& state) {
+  constexpr int z = 18;
+  const std::int64_t n = std::int64_t{1} << z;  // geographic: 2n columns, n rows
+  const terrain::TileAddress vertices[] = {{z, n, n / 2},         {z, n + n / 2, n / 2},
+                                           {z, 0, n / 2},         {z, n / 2, n / 2},
+                                           {z, n + n / 3, n - 1}, {z, n + n / 3, 0}};
+  const terrain::TileAddress a = vertices[state.range(0)];
+  for (auto _ : state) {
+    PlanetTiles tiles(default_planet());
+    if (!consume(state, tiles.make(a, terrain::TileFormat::terrain_rgb))) return;
+  }
+}
+BENCHMARK(BM_PlanetTileAtOctahedronVertex)->DenseRange(0, 5)->Unit(benchmark::kMillisecond);
+
 // The same tile from a PlanetTiles that has made it once, every triangle it needs already split:
 // what a server thread's cached refinement saves (the product cache aside), and what a tile costs
 // beyond its splits (descent, cubic, detail noise, encoding).

@@ -21,12 +21,31 @@ constexpr double kDegree = std::numbers::pi / 180.0;
 // Samples a floor is drawn onto at a time (draw_floor).
 constexpr std::size_t kLanes = 4;
 
+// A point's distance from the polar axis.
+double axis_distance(const Vec3d& p) {
+  return std::sqrt(p[0] * p[0] + p[1] * p[1]);
+}
+
+// The least distance from the polar axis of the chord from a to b: that of the segment between
+// their projections onto the equator's plane from its origin.
+double chord_axis_distance(const Vec3d& a, const Vec3d& b) {
+  const double dx = b[0] - a[0], dy = b[1] - a[1];
+  const double length2 = dx * dx + dy * dy;
+  const double t = length2 > 0.0 ? std::clamp(-(a[0] * dx + a[1] * dy) / length2, 0.0, 1.0) : 0.0;
+  const double x = a[0] + t * dx, y = a[1] + t * dy;
+  return std::sqrt(x * x + y * y);
+}
+
 // Which part of the sphere a grid covers, widened by a floor's reach: every chord within reach
 // of a sample has an end on the inner side of each bound (a chord with both ends beyond one is
-// beyond it all along). Latitude bounds are on z; longitude bounds on the meridians' planes,
-// kept only while the grid spans less than a sixth of a turn.
+// beyond it all along). Latitude bounds are on z, and on the distance from the polar axis, which
+// bounds a grid beside a pole where z hardly changes (a chord's farthest point from the axis is
+// an end, its nearest is computed); longitude bounds are on the meridians' planes, kept only
+// while the grid spans less than a sixth of a turn.
 struct GridBounds {
   double z_lo = -2.0, z_hi = 2.0;
+  bool polar = false;  ///< beyond 45° of latitude: bounds on the distance from the axis too
+  double axis_lo = -1.0, axis_hi = 2.0;
   bool meridians = false;
   Vec3d west{}, east{};  ///< normals pointing into the grid
   double reach = 0.0;
@@ -34,6 +53,10 @@ struct GridBounds {
   bool near(const Vec3d& a, const Vec3d& b) const {
     if (a[2] < z_lo && b[2] < z_lo) return false;
     if (a[2] > z_hi && b[2] > z_hi) return false;
+    if (polar && ((axis_distance(a) < axis_lo && axis_distance(b) < axis_lo) ||
+                  chord_axis_distance(a, b) > axis_hi)) {
+      return false;
+    }
     if (meridians && ((dot(a, west) < -reach && dot(b, west) < -reach) ||
                       (dot(a, east) < -reach && dot(b, east) < -reach))) {
       return false;
@@ -42,7 +65,8 @@ struct GridBounds {
   }
 };
 
-GridBounds grid_bounds(const SampleGrid& grid, std::span<const double> row_z, double reach) {
+GridBounds grid_bounds(const SampleGrid& grid, std::span<const double> row_z,
+                       std::span<const double> row_axis, bool polar, double reach) {
   GridBounds bounds;
   bounds.reach = reach;
   double z_lo = 2.0, z_hi = -2.0;
@@ -52,6 +76,12 @@ GridBounds grid_bounds(const SampleGrid& grid, std::span<const double> row_z, do
   }
   bounds.z_lo = z_lo - reach;
   bounds.z_hi = z_hi + reach;
+  if (polar) {
+    const auto [axis_lo, axis_hi] = std::minmax_element(row_axis.begin(), row_axis.end());
+    bounds.polar = true;
+    bounds.axis_lo = *axis_lo - reach;
+    bounds.axis_hi = *axis_hi + reach;
+  }
   const double west = grid.longitude.front() * kDegree, east = grid.longitude.back() * kDegree;
   if (east - west < std::numbers::pi / 3.0) {
     bounds.meridians = true;
@@ -299,13 +329,23 @@ void Sampler::draw_floors(const SampleGrid& grid, std::size_t base, int level) {
   floor_ = ground_;
   // Rows by z: a sample within reach of a point of the chord differs from it in z by the reach
   // at most, and the chord's z lies between its ends'. Rows' z falls with the row.
+  // Their distances from the polar axis rise with the row in the north and fall in the south.
+  // Beyond 45° of latitude those change faster than z from row to row, so the rows within reach
+  // are found by both: beside a pole z changes by a hair's breadth and its bounds held every row
+  // of a tile (a tile beside the north pole took 60 times as long as one on plain land).
   std::vector<double>& row_z = row_z_;
+  std::vector<double>& row_axis = row_axis_;
   row_z.resize(static_cast<std::size_t>(grid.rows));
+  row_axis.resize(row_z.size());
   for (int r = 0; r < grid.rows; ++r) {
-    row_z[static_cast<std::size_t>(r)] =
-        direction_[2][static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols)];
+    const std::size_t first = static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols);
+    row_z[static_cast<std::size_t>(r)] = direction_[2][first];
+    row_axis[static_cast<std::size_t>(r)] =
+        axis_distance({direction_[0][first], direction_[1][first], 0.0});
   }
-  const GridBounds bounds = grid_bounds(grid, row_z, reach);
+  const bool north = row_z.back() >= row_axis.back();
+  const bool south = row_z.front() <= -row_axis.front();
+  const GridBounds bounds = grid_bounds(grid, row_z, row_axis, north || south, reach);
 
   // The triangles of the level within reach of a sample: from the samples' leaves across every
   // edge near the grid. A walk from a sample crosses only edges within reach of it, which are
@@ -376,6 +416,20 @@ void Sampler::draw_floors(const SampleGrid& grid, std::size_t base, int level) {
       r_end = first_where_not_from(r_end, r_first, grid.rows, [&](int r) {
         return row_z[static_cast<std::size_t>(r)] >= z_lo;
       });
+      if (north || south) {
+        const double axis_lo = chord_axis_distance(a.p, b.p) - slab;
+        const double axis_hi = std::max(axis_distance(a.p), axis_distance(b.p)) + slab;
+        const auto before = [&](int r) {
+          const double axis = row_axis[static_cast<std::size_t>(r)];
+          return north ? axis < axis_lo : axis > axis_hi;
+        };
+        const auto within = [&](int r) {
+          const double axis = row_axis[static_cast<std::size_t>(r)];
+          return north ? axis <= axis_hi : axis >= axis_lo;
+        };
+        r_first = std::max(r_first, first_where_not(r_first, r_end, before));
+        r_end = std::min(r_end, first_where_not(r_first, r_end, within));
+      }
       if (r_first >= r_end) continue;
       if (bounds.meridians) {
         // The plane of column c: (−sin λ_c, cos λ_c, 0)·q falls as c goes east while the grid

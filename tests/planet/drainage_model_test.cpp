@@ -114,6 +114,47 @@ TEST(DrainageModel, GridSamplesAreTheSamplesOfALoneDescent) {
   EXPECT_GT(total, 10000);
 }
 
+TEST(DrainageModel, GridSamplesBesideAPoleAreTheSamplesOfALoneDescent) {
+  // Geographic tiles at the north pole (land on this planet) and a few rows from it: their
+  // columns are millimetres apart and their rows' z all but equal, so a grid finds the rows
+  // within a floor's reach by their distance from the axis (sample_grid.cpp). Every sample is
+  // still what a lone sample's walk gives, at levels from the stored mesh to a few metres.
+  const auto& world = drainage_planet();
+  std::mt19937_64 random(22);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int floored = 0, total = 0;
+  for (int trial = 0; trial < 12; ++trial) {
+    const int level = world->rules().mesh_level + static_cast<int>(unit(random) * 24.0);
+    const double spacing = world->rules().edge_length(level) * (0.2 + 1.8 * unit(random));
+    const double step = spacing / world->definition().radius * 180.0 / std::numbers::pi;
+    const int rows = 21, cols = 23;
+    const double rows_from_pole = trial % 2 == 0 ? 0.0 : 3.0 + 40.0 * unit(random);
+    const double lat = 90.0 - step * (rows / 2 + rows_from_pole);
+    const double lon = -180.0 + 360.0 * unit(random);
+    const Grid g = grid_around(*world, lat, lon, step, rows, cols);
+    Sampler gridded(world), lone(world);
+    std::vector<PointSample> out(g.directions.size());
+    gridded.grid(g.view(), level, 0.0,
+                 [&](std::size_t i, const PointSample& sample) { out[i] = sample; });
+    Hierarchy h = world->base_mesh().hierarchy;
+    for (std::size_t i = 0; i < g.directions.size(); ++i) {
+      const PointSample b = lone.at_from_root(g.directions[i], level, 0.0);
+      ASSERT_EQ(out[i].ground, b.ground) << lat << ", " << lon << " level " << level << " #" << i;
+      ASSERT_EQ(out[i].type, b.type);
+      ++total;
+      const Tri tri = h.tris[static_cast<std::size_t>(h.locate(g.directions[i], level))];
+      const std::array<const Vertex*, 3> corner = {&h.vertices[tri.v[0]], &h.vertices[tri.v[1]],
+                                                   &h.vertices[tri.v[2]]};
+      if (tri.face != FaceType::land || !all_dry(corner)) continue;
+      const double cubic = clough_tocher(
+          corner, barycentric(corner[0]->p, corner[1]->p, corner[2]->p, g.directions[i]),
+          world->definition().radius);
+      floored += out[i].ground < cubic - 1e-6 ? 1 : 0;
+    }
+  }
+  EXPECT_GT(floored, total / 20) << floored << " of " << total;
+}
+
 TEST(DrainageModel, TilesDoNotDependOnWhatWasEvaluatedBefore) {
   // A zoom-10 tile on the realism square's land and one at zoom 12 inside it, fresh and after
   // their neighbours and each other in both orders: the same bytes.

@@ -257,7 +257,8 @@ class Sampler {
   std::vector<double> ground_;  ///< draw_floors(): each sample's ground, NaN off land
   std::array<std::vector<double>, 3> direction_;  ///< draw_floors(): each sample's direction
   std::vector<double> row_z_;                     ///< draw_floors(): each row's z
-  std::vector<double> floor_;  ///< draw_floors(): each sample's lowest floor so far
+  std::vector<double> row_axis_;  ///< draw_floors(): each row's distance from the polar axis
+  std::vector<double> floor_;     ///< draw_floors(): each sample's lowest floor so far
   std::vector<Vec3d> detailed_;
   std::vector<double> detail_;
   /// The surface of a land leaf, this generation's (land_ground): its valley floor where it has
