@@ -43,6 +43,10 @@ Usage:
                                          LAT, LON, M metres apart (default: a zoom-Z tile's
                                          spacing, Z = 8), and a picture of its drainage:
                                          docs/analysis.md
+  planet survey PLANET.json [--points N] [--zoom Z] [--size S]
+                                         geomorphometry of S × S land squares at the land
+                                         points of an N-point equal-area lattice (default 64,
+                                         zoom 8, 512), against issue 20's targets
   planet hypsometry PLANET.json [--samples N] [--cell M]
                                          the land's altitudes over the whole planet: N points
                                          (default 20 000) at M metres' detail (default 200)
@@ -345,6 +349,24 @@ int run(const Args& args) {
         std::cerr << "planet analyze: " << picture_path << ": " << written.error().message << "\n";
         return 1;
       }
+    }
+    std::cout << figures->dump(2) << "\n";
+    return 0;
+  }
+  if (command == "survey") {
+    PlanetSurveyOptions options;
+    const auto points = integer_arg("--points", args.get("--points", "64"), 1, kMaxSurveyPoints);
+    const auto zoom = integer_arg("--zoom", args.get("--zoom", "8"), 0, PlanetTiles::max_zoom());
+    const auto size = integer_arg("--size", args.get("--size", "512"), 2, kMaxPlanetAnalysisSide);
+    if (!points || !zoom || !size) return 2;
+    options.points = static_cast<int>(*points);
+    options.zoom = static_cast<int>(*zoom);
+    options.size = static_cast<int>(*size);
+    Result<nlohmann::json> figures = planet_realism_survey(world, options);
+    if (!figures) {
+      std::cerr << "planet survey: " << figures.error().pointer << ": " << figures.error().message
+                << "\n";
+      return 2;
     }
     std::cout << figures->dump(2) << "\n";
     return 0;

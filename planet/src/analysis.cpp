@@ -145,4 +145,95 @@ terrain::Result<nlohmann::json> planet_hypsometry(const std::shared_ptr<const Pl
   return out;
 }
 
+terrain::Result<nlohmann::json> planet_realism_survey(const std::shared_ptr<const Planet>& planet,
+                                                      const PlanetSurveyOptions& options) {
+  using terrain::Error;
+  if (options.points < 1 || options.points > kMaxSurveyPoints) {
+    return Error{"must be an integer from 1 to " + std::to_string(kMaxSurveyPoints), "/points"};
+  }
+  if (options.zoom < 0 || options.zoom > PlanetTiles::max_zoom()) {
+    return Error{"must be a zoom from 0 to " + std::to_string(PlanetTiles::max_zoom()), "/zoom"};
+  }
+  if (options.size < 2 || options.size > kMaxPlanetAnalysisSide) {
+    return Error{"must be an integer from 2 to " + std::to_string(kMaxPlanetAnalysisSide), "/size"};
+  }
+  const RealismTargets& target = options.targets;
+  const double cell = planet->ground_spacing(options.zoom, 256);
+  const int level = planet->level_for_spacing(cell);
+  const double octaves = planet->octaves_for_spacing(cell);
+  Sampler sampler(planet);
+  nlohmann::json squares = nlohmann::json::array();
+  std::vector<double> pits, closed, thetas, fits;
+  int meeting_pits = 0, meeting_closed = 0, meeting_flint = 0, meeting_all = 0;
+  for (int i = 0; i < options.points; ++i) {
+    const Vec3d direction = fibonacci_direction(i, options.points);
+    double latitude = 0.0, longitude = 0.0;
+    planet->geodesy().direction_to_geographic(direction, latitude, longitude);
+    if (std::abs(latitude) > 80.0) continue;
+    if (sampler.at(direction, level, octaves).type != SurfaceType::land) continue;
+    PlanetAnalysisOptions square;
+    square.latitude = latitude;
+    square.longitude = longitude;
+    square.zoom = options.zoom;
+    square.size = options.size;
+    terrain::Result<nlohmann::json> figures = analyze_planet(planet, square);
+    if (!figures) return figures.error();
+    const nlohmann::json& f = *figures;
+    const double pit_share = f["pits"]["share"].get<double>();
+    const double closed_share = f["closed_depression_share"].get<double>();
+    const bool fitted = !f["flint"].is_null();
+    const double theta = fitted ? f["flint"]["theta"].get<double>() : 0.0;
+    const double r_squared = fitted ? f["flint"]["r_squared"].get<double>() : 0.0;
+    const bool pits_met = pit_share <= target.max_pit_share;
+    const bool closed_met = closed_share <= target.max_closed_depression_share;
+    const bool flint_met = fitted && theta >= target.min_theta && theta <= target.max_theta &&
+                           r_squared >= target.min_r_squared;
+    meeting_pits += pits_met ? 1 : 0;
+    meeting_closed += closed_met ? 1 : 0;
+    meeting_flint += flint_met ? 1 : 0;
+    meeting_all += pits_met && closed_met && flint_met ? 1 : 0;
+    pits.push_back(pit_share);
+    closed.push_back(closed_share);
+    if (fitted) {
+      thetas.push_back(theta);
+      fits.push_back(r_squared);
+    }
+    squares.push_back(
+        {{"latitude", latitude},
+         {"longitude", longitude},
+         {"land_cells", f["land_cells"]},
+         {"pit_share", pit_share},
+         {"closed_depression_share", closed_share},
+         {"theta", fitted ? nlohmann::json(theta) : nlohmann::json(nullptr)},
+         {"r_squared", fitted ? nlohmann::json(r_squared) : nlohmann::json(nullptr)},
+         {"meets",
+          {{"pits", pits_met}, {"closed_depressions", closed_met}, {"flint", flint_met}}}});
+  }
+  const auto median = [](std::vector<double> values) -> nlohmann::json {
+    if (values.empty()) return nullptr;
+    std::sort(values.begin(), values.end());
+    const std::size_t half = values.size() / 2;
+    return values.size() % 2 == 1 ? values[half] : 0.5 * (values[half - 1] + values[half]);
+  };
+  nlohmann::json out;
+  out["input"] = {{"kind", "planet"},     {"planet_id", planet->id()}, {"points", options.points},
+                  {"zoom", options.zoom}, {"size", options.size},      {"cell_size_m", cell}};
+  out["targets"] = {{"max_pit_share", target.max_pit_share},
+                    {"max_closed_depression_share", target.max_closed_depression_share},
+                    {"theta", {target.min_theta, target.max_theta}},
+                    {"min_r_squared", target.min_r_squared}};
+  out["squares"] = squares;
+  out["summary"] = {
+      {"squares", squares.size()},
+      {"meeting_all", meeting_all},
+      {"meeting",
+       {{"pits", meeting_pits}, {"closed_depressions", meeting_closed}, {"flint", meeting_flint}}},
+      {"median",
+       {{"pit_share", median(pits)},
+        {"closed_depression_share", median(closed)},
+        {"theta", median(thetas)},
+        {"r_squared", median(fits)}}}};
+  return out;
+}
+
 }  // namespace planet

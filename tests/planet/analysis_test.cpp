@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "default_definition.hpp"
+#include "planet/tiles.hpp"
 
 namespace planet {
 namespace {
@@ -110,6 +111,74 @@ TEST(PlanetAnalysis, RefusesBadOptionsNamingTheField) {
   EXPECT_EQ(analyze_planet(default_planet(), bad_cell).error().pointer, "/cell_size");
   bad_cell.cell_size = NAN;
   EXPECT_EQ(analyze_planet(default_planet(), bad_cell).error().pointer, "/cell_size");
+}
+
+TEST(PlanetRealismSurvey, AnalysesASquareAtEachLandPointOfTheLattice) {
+  PlanetSurveyOptions options;
+  options.points = 40;
+  options.zoom = 11;
+  options.size = 48;
+  const auto world = default_planet();
+  const auto survey = planet_realism_survey(world, options);
+  ASSERT_TRUE(survey) << survey.error().message;
+  const nlohmann::json& s = *survey;
+  // A square at every lattice point within 80° of the equator that is land at the zoom's level,
+  // and at no other.
+  const double cell = world->ground_spacing(11, 256);
+  Sampler sampler(world);
+  std::size_t land_points = 0;
+  const int level = world->level_for_spacing(cell);
+  const double octaves = world->octaves_for_spacing(cell);
+  for (int i = 0; i < options.points; ++i) {
+    const Vec3d direction = fibonacci_direction(i, options.points);
+    double lat = 0.0, lon = 0.0;
+    world->geodesy().direction_to_geographic(direction, lat, lon);
+    if (std::abs(lat) <= 80.0 && sampler.at(direction, level, octaves).type == SurfaceType::land) {
+      ++land_points;
+    }
+  }
+  ASSERT_GT(land_points, 5u);
+  ASSERT_EQ(s["squares"].size(), land_points);
+  // Each square's verdicts follow from its figures, and the summary counts them.
+  int pits = 0, closed = 0, flint = 0, all = 0;
+  for (const nlohmann::json& square : s["squares"]) {
+    const auto figures = analyze_planet(
+        world, around(square["latitude"].get<double>(), square["longitude"].get<double>(), 48, 11));
+    ASSERT_TRUE(figures);
+    EXPECT_EQ(square["pit_share"], (*figures)["pits"]["share"]);
+    const bool pits_met = square["pit_share"].get<double>() <= 0.001;
+    const bool closed_met = square["closed_depression_share"].get<double>() <= 0.02;
+    const bool flint_met = !square["theta"].is_null() && square["theta"].get<double>() >= 0.3 &&
+                           square["theta"].get<double>() <= 0.8 &&
+                           square["r_squared"].get<double>() >= 0.3;
+    EXPECT_EQ(square["meets"]["pits"], pits_met);
+    EXPECT_EQ(square["meets"]["closed_depressions"], closed_met);
+    EXPECT_EQ(square["meets"]["flint"], flint_met);
+    pits += pits_met;
+    closed += closed_met;
+    flint += flint_met;
+    all += pits_met && closed_met && flint_met;
+  }
+  EXPECT_EQ(s["summary"]["squares"], land_points);
+  EXPECT_EQ(s["summary"]["meeting"]["pits"], pits);
+  EXPECT_EQ(s["summary"]["meeting"]["closed_depressions"], closed);
+  EXPECT_EQ(s["summary"]["meeting"]["flint"], flint);
+  EXPECT_EQ(s["summary"]["meeting_all"], all);
+  EXPECT_EQ(s["input"]["planet_id"], world->id());
+}
+
+TEST(PlanetRealismSurvey, RefusesBadOptionsNamingTheField) {
+  PlanetSurveyOptions options;
+  options.points = 0;
+  EXPECT_EQ(planet_realism_survey(default_planet(), options).error().pointer, "/points");
+  options.points = kMaxSurveyPoints + 1;
+  EXPECT_EQ(planet_realism_survey(default_planet(), options).error().pointer, "/points");
+  options.points = 8;
+  options.zoom = PlanetTiles::max_zoom() + 1;
+  EXPECT_EQ(planet_realism_survey(default_planet(), options).error().pointer, "/zoom");
+  options.zoom = 8;
+  options.size = 1;
+  EXPECT_EQ(planet_realism_survey(default_planet(), options).error().pointer, "/size");
 }
 
 TEST(PlanetHypsometry, SummarisesTheLandsAltitudes) {

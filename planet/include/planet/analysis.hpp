@@ -52,4 +52,32 @@ struct PlanetHypsometryOptions {
 terrain::Result<nlohmann::json> planet_hypsometry(const std::shared_ptr<const Planet>& planet,
                                                   const PlanetHypsometryOptions& options);
 
+/// Issue 20's realism targets for land (docs/analysis.md "Planets"): pits and closed
+/// depressions as shares of dry land cells, Flint's law's exponent and fit.
+struct RealismTargets {
+  double max_pit_share = 0.001;
+  double max_closed_depression_share = 0.02;
+  double min_theta = 0.3, max_theta = 0.8;
+  double min_r_squared = 0.3;
+};
+
+/// The most lattice points planet_realism_survey looks at.
+inline constexpr int kMaxSurveyPoints = 4096;
+
+struct PlanetSurveyOptions {
+  /// Points of an equal-area (Fibonacci) lattice over the sphere; each within 80° of the equator
+  /// whose centre is land at the zoom's level of detail is the centre of a square.
+  int points = 64;
+  int zoom = 8;    ///< each square's samples are a 256² tile's of this zoom apart
+  int size = 512;  ///< samples per side of each square
+  RealismTargets targets;
+};
+
+/// Geomorphometry of land squares spread over the whole planet, so that realism is measured
+/// wherever land is, not only where a fixed square lies: each square's figures (analyze_planet)
+/// and whether it meets each target, and over all squares how many meet each and all of them
+/// and the medians. Errors name /points, or analyze_planet's /zoom and /size.
+terrain::Result<nlohmann::json> planet_realism_survey(const std::shared_ptr<const Planet>& planet,
+                                                      const PlanetSurveyOptions& options);
+
 }  // namespace planet
