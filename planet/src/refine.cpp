@@ -156,16 +156,17 @@ constexpr double kDrainMargin = 0.2;
 // The drainage relief model (planet.md "Relief models"): a dry vertex stands above the corner it
 // drains to by min_drain_slope · (l / 1 km)^−kHangConcavity · l for a link l metres long, at most
 // kHangSteepest · l: links steepen towards the headwaters as Flint's law has it (slope ∝ area^−θ
-// with area ∝ l², so θ = kHangConcavity / 2), and a chain of links from any vertex down to a river
-// sums to a few hundred metres. The rise grows with the square root of the region's ruggedness
-// (with all of it, the squares that mix smooth plateau tops with rugged escarpments scatter from
-// Flint's law at zoom 8), and with the belts' and plateaus' uplift U as 1 + U / kHangUpliftScale:
-// the stream-power law's steady slope grows with the uplift rate, so belts steepen every link
-// alike and keep θ. Added to the height instead, the uplift steepened trunks as much as
-// headwaters on every link, and on the coarse links alone stood up as spikes and cliffs that the
-// finer vertices, hung from lower corners, did not follow (docs/analysis.md "The drainage relief
-// model"). Drains wind twice as far off their edge as land splits do.
-constexpr double kHangConcavity = 1.15;
+// with area ∝ l², so θ = kHangConcavity / 2: 0.5, which left fewer land squares of `planet
+// survey` with θ above 0.8 at zoom 11 than 0.575 did), and a chain of links from any vertex down to
+// a river sums to a few hundred metres. The rise grows with the square root of the region's
+// ruggedness (with all of it, the squares that mix smooth plateau tops with rugged escarpments
+// scatter from Flint's law at zoom 8), and with the belts' and plateaus' uplift U as 1 + U /
+// kHangUpliftScale: the stream-power law's steady slope grows with the uplift rate, so belts
+// steepen every link alike and keep θ. Added to the height instead, the uplift steepened trunks as
+// much as headwaters on every link, and on the coarse links alone stood up as spikes and cliffs
+// that the finer vertices, hung from lower corners, did not follow (docs/analysis.md "The drainage
+// relief model"). Drains wind twice as far off their edge as land splits do.
+constexpr double kHangConcavity = 1.0;
 constexpr double kHangUpliftScale = 500.0;
 constexpr double kHangRuggedness = 0.5;
 constexpr double kHangSteepest = 0.1;

@@ -47,8 +47,9 @@ namespace terrain {
 /// drains to, rivers climb into the belts and plateaus they drain). 17: the drainage model's
 /// network grows where its rivers would stand lowest, land beside the coast drains to it rather
 /// than to a river that would stand hundreds of metres higher, and new arms climb as the land
-/// hung beside them does (fewer rivers on walls).
-inline constexpr int kProductGeneration = 17;
+/// hung beside them does (fewer rivers on walls). 18: the drainage model's hung links steepen
+/// towards the headwaters as l^−1 instead of l^−1.15 (θ ≈ 0.5: fewer land squares too concave).
+inline constexpr int kProductGeneration = 18;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
