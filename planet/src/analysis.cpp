@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,22 @@
 #include "terrain/drainage.hpp"
 
 namespace planet {
+namespace {
+
+// The checks a square's side and zoom share between analyze_planet and the survey.
+std::optional<terrain::Error> bad_size(int size) {
+  if (size >= 2 && size <= kMaxPlanetAnalysisSide) return std::nullopt;
+  return terrain::Error{"must be an integer from 2 to " + std::to_string(kMaxPlanetAnalysisSide),
+                        "/size"};
+}
+
+std::optional<terrain::Error> bad_zoom(int zoom) {
+  if (zoom >= 0 && zoom <= PlanetTiles::max_zoom()) return std::nullopt;
+  return terrain::Error{"must be a zoom from 0 to " + std::to_string(PlanetTiles::max_zoom()),
+                        "/zoom"};
+}
+
+}  // namespace
 
 terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Planet>& planet,
                                                const PlanetAnalysisOptions& options,
@@ -22,12 +39,8 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
   if (!(std::abs(options.longitude) <= 180.0)) {
     return Error{"must be a longitude from -180 to 180 degrees", "/longitude"};
   }
-  if (options.size < 2 || options.size > kMaxPlanetAnalysisSide) {
-    return Error{"must be an integer from 2 to " + std::to_string(kMaxPlanetAnalysisSide), "/size"};
-  }
-  if (options.cell_size == 0.0 && (options.zoom < 0 || options.zoom > PlanetTiles::max_zoom())) {
-    return Error{"must be a zoom from 0 to " + std::to_string(PlanetTiles::max_zoom()), "/zoom"};
-  }
+  if (auto bad = bad_size(options.size)) return *bad;
+  if (auto bad = bad_zoom(options.zoom); bad && options.cell_size == 0.0) return *bad;
   const double cell =
       options.cell_size == 0.0 ? planet->ground_spacing(options.zoom, 256) : options.cell_size;
   if (!std::isfinite(cell) || !(cell >= 0.01) || !(cell <= 1e5)) {
@@ -151,12 +164,8 @@ terrain::Result<nlohmann::json> planet_realism_survey(const std::shared_ptr<cons
   if (options.points < 1 || options.points > kMaxSurveyPoints) {
     return Error{"must be an integer from 1 to " + std::to_string(kMaxSurveyPoints), "/points"};
   }
-  if (options.zoom < 0 || options.zoom > PlanetTiles::max_zoom()) {
-    return Error{"must be a zoom from 0 to " + std::to_string(PlanetTiles::max_zoom()), "/zoom"};
-  }
-  if (options.size < 2 || options.size > kMaxPlanetAnalysisSide) {
-    return Error{"must be an integer from 2 to " + std::to_string(kMaxPlanetAnalysisSide), "/size"};
-  }
+  if (auto bad = bad_zoom(options.zoom)) return *bad;
+  if (auto bad = bad_size(options.size)) return *bad;
   const RealismTargets& target = options.targets;
   const double cell = planet->ground_spacing(options.zoom, 256);
   const int level = planet->level_for_spacing(cell);
