@@ -33,6 +33,15 @@ double shape_field(const Vec3d& p, std::uint32_t seed) {
   return sum;
 }
 
+}  // namespace
+
+bool near_cone_point(const Vec3d& p) {
+  const double nearest = std::cos(kConePointSea);
+  return std::abs(p[0]) > nearest || std::abs(p[1]) > nearest;
+}
+
+namespace {
+
 std::array<float, 3> tangent_towards(const Vec3d& p, const Vec3d& direction) {
   const Vec3d t = sub(direction, scale(p, dot(direction, p)));
   const double n = std::sqrt(dot(t, t));
@@ -116,9 +125,12 @@ class Classifier {
       }
     }
     area_.resize(faces_.size());
+    sea_only_.resize(faces_.size());
     for (std::size_t f = 0; f < faces_.size(); ++f) {
       const Tri& t = tri(faces_[f]);
       area_[f] = spherical_area(vertex(t.v[0]).p, vertex(t.v[1]).p, vertex(t.v[2]).p);
+      sea_only_[f] = near_cone_point(vertex(t.v[0]).p) || near_cone_point(vertex(t.v[1]).p) ||
+                     near_cone_point(vertex(t.v[2]).p);
     }
   }
 
@@ -129,6 +141,7 @@ class Classifier {
   // §4.1: a face joins continent i when at most one of its vertices is pure sea and the others
   // already belong to i, so two continents always stay an edge apart.
   bool can_add(std::size_t f, int i) {
+    if (sea_only_[f]) return false;
     int sea = 0;
     for (std::uint32_t v : tri(faces_[f]).v) {
       if (owner_[v] < 0) {
@@ -153,7 +166,7 @@ class Classifier {
   bool seed_continent() {
     for (int attempt = 0; attempt < 4096; ++attempt) {
       const std::size_t f = random_.below(static_cast<std::uint32_t>(faces_.size()));
-      if (land_[f]) continue;
+      if (land_[f] || sea_only_[f]) continue;
       bool free = true;  // every vertex pure sea: the new continent touches no other
       for (std::uint32_t v : tri(faces_[f]).v) free = free && owner_[v] < 0;
       if (!free) continue;
@@ -229,7 +242,7 @@ class Classifier {
       const Vec3d c = normalize(add(add(vertex(t.v[0]).p, vertex(t.v[1]).p), vertex(t.v[2]).p));
       double latitude = 0.0, longitude = 0.0;
       geodesy.direction_to_geographic(c, latitude, longitude);
-      land_[f] = map_->land(latitude, longitude);
+      land_[f] = map_->land(latitude, longitude) && !sea_only_[f];
     }
     std::vector<int> component(faces_.size(), -1);
     std::vector<std::size_t> stack;
@@ -605,6 +618,7 @@ class Classifier {
   std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> neighbours_;  // (vertex, edge)
   std::vector<Edge> edges_;
   std::vector<double> area_;
+  std::vector<bool> sea_only_;  ///< beside a cone point (kConePointSea)
   std::vector<int> owner_;
   std::vector<bool> land_;
   double land_area_ = 0.0;

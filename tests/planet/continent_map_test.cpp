@@ -176,6 +176,28 @@ TEST(PlanetContinentMap, SamplesAreLandOnTheMapsLandAndSeaElsewhere) {
   EXPECT_LT(ocean.ground, ocean.water);
 }
 
+TEST(PlanetContinentMap, ConePointsStaySeaUnderTheMapsLand) {
+  // The blob holds 0° N 0°, one of the octahedron's cone points (base_mesh.hpp kConePointSea):
+  // the faces beside it are sea all the same, and so is the point.
+  ASSERT_TRUE(kBlob.holds(0.0, 0.0));
+  const BaseMesh& m = mesh();
+  int beside = 0;
+  for (std::int32_t t : m.river_faces) {
+    const Tri& tri = m.hierarchy.tris[static_cast<std::size_t>(t)];
+    bool near = false;
+    for (std::uint32_t v : tri.v) near = near || near_cone_point(m.hierarchy.vertices[v].p);
+    if (!near) continue;
+    ++beside;
+    EXPECT_EQ(tri.face, FaceType::sea) << "face " << t;
+  }
+  EXPECT_GE(beside, 4);
+  Result<std::shared_ptr<const Planet>> world = Planet::build(definition(), &map());
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  Sampler sampler(*world);
+  EXPECT_EQ(sampler.sample(0.0, 0.0).type, SurfaceType::sea);
+  EXPECT_NE(sampler.sample(0.0, 10.0).type, SurfaceType::sea);
+}
+
 TEST(PlanetContinentMap, SameBytesGiveTheSameMeshWhateverTheThreads) {
   const PlanetDefinition d = definition();
   const ContinentMap again = decode_continent_map(caps_png()).value();

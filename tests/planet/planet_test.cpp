@@ -90,6 +90,32 @@ TEST(PlanetBaseMesh, LandFractionIsWithinTwoPercentOfTheRequest) {
   }
 }
 
+TEST(PlanetBaseMesh, FacesBesideTheConePointsAreSeaOnEveryPlanet) {
+  // The four equatorial vertices of the octahedron, and nothing else (the poles are regular).
+  for (const Vec3d& cone : {Vec3d{1, 0, 0}, Vec3d{-1, 0, 0}, Vec3d{0, 1, 0}, Vec3d{0, -1, 0}}) {
+    EXPECT_TRUE(near_cone_point(cone));
+    EXPECT_TRUE(near_cone_point(normalize(add(cone, {0.0, 0.0, 0.9 * kConePointSea}))));
+    EXPECT_FALSE(near_cone_point(normalize(add(cone, {0.0, 0.0, 1.1 * kConePointSea}))));
+  }
+  EXPECT_FALSE(near_cone_point({0, 0, 1}));
+  EXPECT_FALSE(near_cone_point(normalize({1, 1, 0})));
+  // Seven tenths land: without the rule, continents cover cone points on every one of these seeds.
+  for (std::uint64_t seed : {1u, 2u, 3u, 4u}) {
+    const auto mesh = build_base_mesh(default_definition(seed, 0.7));
+    int beside = 0;
+    for (std::int32_t t : mesh->river_faces) {
+      const Tri& tri = mesh->hierarchy.tris[static_cast<std::size_t>(t)];
+      bool near = false;
+      for (std::uint32_t v : tri.v) near = near || near_cone_point(mesh->hierarchy.vertices[v].p);
+      if (!near) continue;
+      ++beside;
+      EXPECT_NE(tri.face, FaceType::land) << "seed " << seed << " face " << t;
+    }
+    EXPECT_GE(beside, 4) << "seed " << seed;
+    EXPECT_NEAR(mesh->stats.land_fraction, 0.7, 0.02) << "seed " << seed;
+  }
+}
+
 TEST(PlanetBaseMesh, EveryRiverFallsMonotonicallyToTheSea) {
   const BaseMesh& mesh = shared_planet()->base_mesh();
   const auto& vertices = mesh.hierarchy.vertices;

@@ -15,6 +15,16 @@
 
 namespace planet {
 
+/// The octahedron's four vertices on the equator are the hierarchy's cone points: four triangles
+/// meet at each where the bisection's pattern has eight meet elsewhere, so the triangles around
+/// them shrink level after level (planet.md "The cone points"). A level-B face with a corner
+/// within this many radians of one is sea on every planet, grown or mapped: land there would be
+/// slivers whose drain floors cost a tile seconds.
+inline constexpr double kConePointSea = 0.05;
+
+/// Whether the unit vector p lies within kConePointSea of a cone point.
+bool near_cone_point(const Vec3d& p);
+
 struct BuildOptions {
   /// Threads for the vertex computations of the bisection levels. The result does not depend
   /// on it: each split is a pure function of its diamond and is linked in a fixed order.

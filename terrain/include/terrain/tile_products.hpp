@@ -49,7 +49,9 @@ namespace terrain {
 /// than to a river that would stand hundreds of metres higher, and new arms climb as the land
 /// hung beside them does (fewer rivers on walls). 18: the drainage model's hung links steepen
 /// towards the headwaters as l^−1 instead of l^−1.15 (θ ≈ 0.5: fewer land squares too concave).
-inline constexpr int kProductGeneration = 18;
+/// 19: the sea covers the octahedron's four cone points on the equator (every continent grows
+/// otherwise from there on), where land was slivers whose tiles took seconds.
+inline constexpr int kProductGeneration = 19;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
