@@ -32,7 +32,7 @@ fi
 # Then three squares of the default planet's relief regions (generation 13): a plateau's top, its
 # escarpment and a coastal plain about 45 km from the sea.
 planets=("default $default 5 -175" "seed-7 $(seeded 7) 5 -165"
-  "seed-42 $(seeded 42) 5 -115" "plateau $default -35 110"
+  "seed-42 $(seeded 42) 5 -145" "plateau $default -35 110"
   "escarpment $default -32 105" "coastal $default -35 98.6")
 # channel_km2: the channel threshold the drop analysis chose (docs/analysis.md), * where no
 # candidate kept a constant drop and it is 1% of the square.

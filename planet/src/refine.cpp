@@ -141,9 +141,16 @@ namespace {
 // triangles' shapes (newest-vertex bisection makes finitely many shapes from each start), so a
 // sliver made at any level stays a sliver at every level below, and a piecewise-linear surface
 // over slivers shows streaks and pits at every zoom (docs/analysis.md "Where the pits come
-// from"). The base shape keeps half the offset, the refinement of land 15 %; coastlines keep all
-// of it, since their wiggle is the continents' outline.
-constexpr double kBaseShapeOffset = 0.5;
+// from"). The refinement of land keeps 15 %; coastlines keep all of it, since their wiggle is the
+// continents' outline. The base shape moves half way from the midpoint to the diamond's centre,
+// eq. 2's mean (kBaseShapePull), and keeps a quarter of eq. 2's random offset around that centre
+// (kBaseShapeJitter): the jitter, compounded over the base levels, made leaves of the stored mesh
+// from a fifth to five times the mean area, and a tile's land has more pits the larger its
+// leaves (docs/analysis.md "Generation 19"). With half the jitter, as eq. 2's half offset had, a
+// quarter of the zoom-8 land squares of `planet survey` missed the pits target; with a quarter,
+// a tenth. Less than a quarter leaves straight coasts at 45° and 90° in the pictures.
+constexpr double kBaseShapePull = 0.5;
+constexpr double kBaseShapeJitter = 0.25;
 constexpr double kLandOffset = 0.15;
 // Rivers keep half of eq. 7–9's offset from the base's midpoint (its jitter and the Hermite
 // curve's pull alike): with all of it, the triangles beside a river became slivers whose valley
@@ -288,7 +295,9 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
   };
 
   if (level < rules.base_level) {  // base shape: geometry only; §4 labels it afterwards
-    m.p = place(offset(kBaseShapeOffset));
+    const Vec3d centre = normalize(add(add(a.p, b.p), add(t.p, d.p)));
+    m.p = place(normalize(add(add(mid, scale(sub(centre, mid), kBaseShapePull)),
+                              scale(sub(eq2, centre), kBaseShapeJitter))));
     m.flags = kSea;
     m.ground = def.sea_level - def.sea_depth;
     m.water = def.sea_level;

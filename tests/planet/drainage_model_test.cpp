@@ -198,7 +198,7 @@ TEST(DrainageModel, RiversRunInValleysNotOnWalls) {
     double lat, lon;
   };
   for (const Square& square : {Square{test::default_definition().seed, 5.0, -175.0},
-                               Square{7, 5.0, -165.0}, Square{42, 5.0, -115.0}}) {
+                               Square{7, 5.0, -165.0}, Square{42, 5.0, -145.0}}) {
     PlanetDefinition d = test::default_definition();
     d.seed = square.seed;
     const auto world = Planet::create(d);

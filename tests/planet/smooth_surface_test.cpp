@@ -196,14 +196,14 @@ class DryLand : public ::testing::TestWithParam<ReliefModel> {
     }
     return shared;
   }
-  // Lines across river valleys from 20 km west of the square's centre to it, 500 m apart, 14–26 km
-  // south of it (generation 19's continents: 62 and 205 crossings of the kinds below).
+  // Lines across river valleys from 20 to 40 km east of the square's centre, 500 m apart, 34–46 km
+  // south of it (generation 19's continents: 45 and 242 crossings of the kinds below).
   static std::vector<double> valley_lines() {
     std::vector<double> norths;
-    for (int line = 0; line < 24; ++line) norths.push_back(-26000.0 + 500.0 * line);
+    for (int line = 0; line < 24; ++line) norths.push_back(-46000.0 + 500.0 * line);
     return norths;
   }
-  static constexpr double kValleyFrom = -20000.0, kValleyTo = 0.0;
+  static constexpr double kValleyFrom = 20000.0, kValleyTo = 40000.0;
   // Along eastward lines (`north` metres from the centre, east from `from` to `to`), every
   // crossing from one triangle into another that `selected(h, before, after)` picks: the slope's
   // change across it must shrink with the step (C1), where a crease would keep it. Returns how

@@ -49,8 +49,9 @@ namespace terrain {
 /// than to a river that would stand hundreds of metres higher, and new arms climb as the land
 /// hung beside them does (fewer rivers on walls). 18: the drainage model's hung links steepen
 /// towards the headwaters as l^−1 instead of l^−1.15 (θ ≈ 0.5: fewer land squares too concave).
-/// 19: the sea covers the octahedron's four cone points on the equator (every continent grows
-/// otherwise from there on), where land was slivers whose tiles took seconds.
+/// 19: the sea covers the octahedron's four cone points on the equator, where land was slivers
+/// whose tiles took seconds, and the base shape keeps a quarter of eq. 2's jitter instead of half
+/// (fewer pits: they follow the stored mesh's largest leaves); every continent is new.
 inline constexpr int kProductGeneration = 19;
 
 enum class TileFormat {
