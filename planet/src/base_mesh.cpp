@@ -19,6 +19,12 @@
 #include "planet/geodesy.hpp"
 
 namespace planet {
+
+bool near_cone_point(const Vec3d& p) {
+  static const double nearest = std::cos(kConePointSea);
+  return std::abs(p[0]) > nearest || std::abs(p[1]) > nearest;
+}
+
 namespace {
 
 // Low-frequency field that shapes the continents: growth prefers faces where it is high.
@@ -32,15 +38,6 @@ double shape_field(const Vec3d& p, std::uint32_t seed) {
   }
   return sum;
 }
-
-}  // namespace
-
-bool near_cone_point(const Vec3d& p) {
-  const double nearest = std::cos(kConePointSea);
-  return std::abs(p[0]) > nearest || std::abs(p[1]) > nearest;
-}
-
-namespace {
 
 std::array<float, 3> tangent_towards(const Vec3d& p, const Vec3d& direction) {
   const Vec3d t = sub(direction, scale(p, dot(direction, p)));
