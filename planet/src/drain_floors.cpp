@@ -15,7 +15,7 @@ double floor_by_walk(Hierarchy& hierarchy, std::int32_t leaf, const Vec3d& p, do
       const Vertex& a = hierarchy.vertices[tri.v[k]];
       const Vertex& b = hierarchy.vertices[tri.v[(k + 1) % 3]];
       if (!within_reach(a.p, b.p, p, shape)) continue;
-      if (tri.edge[k] == EdgeType::drain) {
+      if (floored_edge(hierarchy, tri, k)) {
         result = std::min(result, lowered(ground, drain_segment(a, b, shape), p, shape));
       }
       const std::int32_t across = tri.nb[k];

@@ -1,7 +1,8 @@
-// The floors of the drainage relief model (planet.md "Relief models"): along every drain edge of
-// the level a sample is taken at, the ground is lowered towards the edge's own height, so that
-// the valleys of the level drain along their edges instead of between the corners' cubics.
-// One function says what one edge does to one point; a lone sample applies it to the drain
+// The floors of the drainage relief model (planet.md "Relief models"): along every drain edge and
+// valley edge of the level a sample is taken at, the ground is lowered towards the edge's own
+// height, so that the valleys of the level drain along their edges instead of between the
+// corners' cubics.
+// One function says what one edge does to one point; a lone sample applies it to the floored
 // edges it walks to (floor_by_walk), a grid to the edges it draws (Sampler::grid), and both
 // take the minimum, which does not depend on the order, so they agree to the bit.
 #pragma once
@@ -99,6 +100,27 @@ inline double lowered(double ground, const DrainSegment& e, const Vec3d& p,
   const double lowering = above < e.ease ? eased : above - 0.5 * e.ease;
   // Below the floor (so above its axis, too) and within reach.
   return d < shape.reach && above > 0.0 ? ground - weight * lowering : ground;
+}
+
+/// Whether edge k of `tri` (a triangle of the level, its partner known) carries a floor: a
+/// drain edge, or a valley edge — a land edge whose two opposite corners, one in each triangle
+/// beside it, both stand higher than both of its ends. A valley edge is not a drain (its upper
+/// end drains along another edge), but the level's surface is a valley along it all the same,
+/// and without a floor its cubic bulges above the line between its ends: at zoom 8 four in five
+/// of the pits that the drains' floors left lay on valley edges (docs/analysis.md "Generation
+/// 20"). It depends on the edge's diamond only, so a grid and a lone sample agree on it.
+inline bool floored_edge(const Hierarchy& hierarchy, const Tri& tri, std::size_t k) {
+  if (tri.edge[k] == EdgeType::drain) return true;
+  if (tri.edge[k] != EdgeType::land || tri.nb[k] < 0) return false;
+  const std::uint32_t a = tri.v[k], b = tri.v[(k + 1) % 3];
+  const Tri& across = hierarchy.tris[static_cast<std::size_t>(tri.nb[k])];
+  std::uint32_t opposite = across.v[0];
+  for (const std::uint32_t v : across.v) {
+    if (v != a && v != b) opposite = v;
+  }
+  const auto level = [&](std::uint32_t v) { return outflow_level(hierarchy.vertices[v]); };
+  const double top = std::max(level(a), level(b));
+  return level(tri.v[(k + 2) % 3]) > top && level(opposite) > top;
 }
 
 /// Metres from p to the chord of edge (u, v), for deciding where a walk goes: the walk crosses

@@ -1,6 +1,6 @@
 // Sampler::grid: a tile's samples together. Each is what a lone sample at its direction gives,
 // bit for bit; what is shared is only the work: the start of the descents, the detail noise, and
-// the drainage model's floors, drawn once per drain edge onto the samples it reaches instead of
+// the drainage model's floors, drawn once per floored edge onto the samples it reaches instead of
 // walked to from every sample.
 #include <algorithm>
 #include <cassert>
@@ -383,8 +383,8 @@ void Sampler::draw_floors(const SampleGrid& grid, std::size_t base, int level) {
     }
   }
 
-  // Each drain edge once (from the lower-numbered of its two triangles), onto the samples of the
-  // rows and columns within reach of it.
+  // Each floored edge (drain or valley) once, from the lower-numbered of its two triangles, onto
+  // the samples of the rows and columns within reach of it.
   const FloorSamples samples{direction_[0].data(), direction_[1].data(),
                              direction_[2].data(), ground_.data(),
                              floor_.data(),        static_cast<std::size_t>(grid.cols)};
@@ -403,7 +403,7 @@ void Sampler::draw_floors(const SampleGrid& grid, std::size_t base, int level) {
   for (const std::int32_t u : reached_) {
     const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(u)];
     for (std::size_t k = 0; k < 3; ++k) {
-      if (tri.edge[k] != EdgeType::drain) continue;
+      if (!floors::floored_edge(hierarchy_, tri, k)) continue;
       const std::int32_t across = tri.nb[k];
       if (across >= 0 && marked(across) && across < u) continue;
       const Vertex& a = hierarchy_.vertices[tri.v[k]];

@@ -7,9 +7,12 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <set>
+#include <utility>
 #include <vector>
 
 #include "default_definition.hpp"
+#include "drain_floors.hpp"
 #include "planet/analysis.hpp"
 #include "planet/planet.hpp"
 #include "planet/smooth_surface.hpp"
@@ -145,6 +148,100 @@ TEST(DrainageModel, GridSamplesBesideAPoleAreTheSamplesOfALoneDescent) {
     if (HasFatalFailure()) return;
   }
   EXPECT_GT(floored, total / 20) << floored << " of " << total;
+}
+
+TEST(DrainageModel, ValleyEdgesAreFlooredLikeDrains) {
+  // A valley edge (a land edge whose two opposite corners both stand above both of its ends) is
+  // not a drain, but the level's surface is a valley along it: its floor holds the ground at the
+  // middle of the edge within the floor's easing of the line between its ends, where the cubic
+  // alone often bulges above it (and made four in five of zoom 8's pits before generation 20).
+  const auto& world = drainage_planet();
+  const int level = world->level_for_spacing(world->ground_spacing(8, 256));
+  const double radius = world->definition().radius;
+  const floors::FloorShape shape = floors::floor_shape(world->rules(), level);
+  Hierarchy h = world->base_mesh().hierarchy;
+  Sampler sampler(world);
+  std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
+  int valleys = 0, bulging = 0;
+  for (int i = 0; i < 40; ++i) {
+    for (int j = 0; j < 40; ++j) {
+      const Vec3d p = world->geodesy().direction(4.5 + 0.025 * i, -175.5 + 0.025 * j);
+      const std::int32_t t = h.locate(p, level);
+      h.ensure_partner(t);
+      const Tri tri = h.tris[static_cast<std::size_t>(t)];
+      if (tri.face != FaceType::land) continue;
+      for (std::size_t k = 0; k < 3; ++k) {
+        const std::uint32_t ia = tri.v[k], ib = tri.v[(k + 1) % 3];
+        if (tri.edge[k] != EdgeType::land || !seen.insert(std::minmax(ia, ib)).second) continue;
+        const Tri& across = h.tris[static_cast<std::size_t>(tri.nb[k])];
+        std::uint32_t opposite = across.v[0];
+        for (const std::uint32_t v : across.v) {
+          if (v != ia && v != ib) opposite = v;
+        }
+        const Vertex a = h.vertices[ia], b = h.vertices[ib], apex = h.vertices[tri.v[(k + 2) % 3]];
+        const double top = std::max(a.ground, b.ground);
+        if (wet(a) || wet(b) || wet(apex) || wet(h.vertices[opposite]) || apex.ground <= top ||
+            h.vertices[opposite].ground <= top) {
+          continue;
+        }
+        EXPECT_TRUE(floors::floored_edge(h, tri, k));
+        ++valleys;
+        const Vec3d middle = normalize(add(a.p, b.p));
+        const double line = 0.5 * (a.ground + b.ground);
+        const double ease = floors::drain_segment(a, b, shape).ease;
+        const PointSample s = sampler.at(middle, level, 0.0);
+        EXPECT_LE(s.ground, line + ease + 1e-6) << valleys;
+        const std::array<const Vertex*, 3> corner = {&a, &b, &apex};
+        const double cubic = clough_tocher(corner, barycentric(a.p, b.p, apex.p, middle), radius);
+        bulging += cubic > line + ease ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_GT(valleys, 50);
+  // The floors matter: without them many valley edges would stand above the line.
+  EXPECT_GE(bulging, valleys / 25) << bulging << " of " << valleys;
+}
+
+TEST(DrainageModel, DrainsTurnAcrossTheEdgesTheySplit) {
+  // The dry vertices that splits of land edges make at zoom 11's level over the realism square's
+  // land (about 25 km across): where a vertex's lowest corner is an end of the edge it splits, a
+  // drain that ran on along that edge continued an old edge's line, level after level, into the
+  // lowest corners, which gathered stars of straight valleys. Drains turn across instead where
+  // an opposite corner stands low enough (refine.cpp, kTurnAbove).
+  const auto& world = drainage_planet();
+  const int level = world->level_for_spacing(world->ground_spacing(11, 256));
+  Hierarchy h = world->base_mesh().hierarchy;
+  std::set<std::int32_t> leaves;
+  for (int i = 0; i < 80; ++i) {
+    for (int j = 0; j < 80; ++j) {
+      leaves.insert(
+          h.locate(world->geodesy().direction(4.9 + 0.0025 * i, -175.1 + 0.0025 * j), level));
+    }
+  }
+  std::set<std::uint32_t> seen;
+  int along = 0, across = 0;
+  for (const std::int32_t t : leaves) {
+    const Tri& tri = h.tris[static_cast<std::size_t>(t)];
+    const Tri& parent = h.tris[static_cast<std::size_t>(tri.parent)];
+    const std::uint32_t m = tri.v[2];  // the split's new vertex
+    if (tri.face != FaceType::land || parent.edge[0] != EdgeType::land || wet(h.vertices[m]) ||
+        !seen.insert(m).second) {
+      continue;
+    }
+    // Child 0 is (v2, v0, m): its edge 1 is a half of the split edge and edge 2 a spoke; child 1
+    // is (v1, v2, m): edge 1 a spoke, edge 2 a half.
+    for (std::size_t k = 1; k < 3; ++k) {
+      const std::uint32_t other = tri.v[k == 1 ? 1 : 0];
+      if (tri.edge[k] != EdgeType::drain || h.vertices[other].ground >= h.vertices[m].ground) {
+        continue;
+      }
+      const bool half = (k == 1) == (tri.which == 0);
+      (half ? along : across) += 1;
+    }
+  }
+  // A third ran on along their edge without turning (754 of 2 189), under a quarter now.
+  ASSERT_GT(along + across, 1000);
+  EXPECT_LT(along * 100, (along + across) * 28) << along << " of " << along + across;
 }
 
 TEST(DrainageModel, TilesDoNotDependOnWhatWasEvaluatedBefore) {

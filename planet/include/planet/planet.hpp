@@ -212,7 +212,7 @@ class Sampler {
   /// sampled, their floors drawn (`floors`) and handed to `out` with their index in the whole.
   void grid_rows(const SampleGrid& grid, std::size_t base, int level, double octaves, bool floors,
                  const GridSink& out);
-  /// grid_rows()'s floors: every drain edge of `level` within reach of a sample drawn onto the
+  /// grid_rows()'s floors: every floored edge of `level` within reach of a sample drawn onto the
   /// samples it reaches (pending_[k] for the whole's sample order_[k], the band's
   /// order_[k] − base, in leaves_[k], at pending_directions_[k]).
   void draw_floors(const SampleGrid& grid, std::size_t base, int level);

@@ -51,8 +51,10 @@ namespace terrain {
 /// towards the headwaters as l^−1 instead of l^−1.15 (θ ≈ 0.5: fewer land squares too concave).
 /// 19: the sea covers the octahedron's four cone points on the equator, where land was slivers
 /// whose tiles took seconds, and the base shape keeps a quarter of eq. 2's jitter instead of half
-/// (fewer pits: they follow the stored mesh's largest leaves); every continent is new.
-inline constexpr int kProductGeneration = 19;
+/// (fewer pits: they follow the stored mesh's largest leaves); every continent is new. 20: the
+/// drainage model floors valley edges as it floors drains (fewer pits), and turns a drain that
+/// would run on along the edge being split across it (no stars of valleys at coarse vertices).
+inline constexpr int kProductGeneration = 20;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
