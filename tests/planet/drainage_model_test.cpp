@@ -172,7 +172,10 @@ TEST(DrainageModel, ValleyEdgesAreFlooredLikeDrains) {
       if (tri.face != FaceType::land) continue;
       for (std::size_t k = 0; k < 3; ++k) {
         const std::uint32_t ia = tri.v[k], ib = tri.v[(k + 1) % 3];
-        if (tri.edge[k] != EdgeType::land || !seen.insert(std::minmax(ia, ib)).second) continue;
+        if (tri.edge[k] != EdgeType::land || tri.nb[k] < 0 ||
+            !seen.insert(std::minmax(ia, ib)).second) {
+          continue;
+        }
         const Tri& across = h.tris[static_cast<std::size_t>(tri.nb[k])];
         std::uint32_t opposite = across.v[0];
         for (const std::uint32_t v : across.v) {
@@ -218,21 +221,22 @@ TEST(DrainageModel, DrainsTurnAcrossTheEdgesTheySplit) {
           h.locate(world->geodesy().direction(4.9 + 0.0025 * i, -175.1 + 0.0025 * j), level));
     }
   }
-  std::set<std::uint32_t> seen;
+  std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
   int along = 0, across = 0;
   for (const std::int32_t t : leaves) {
     const Tri& tri = h.tris[static_cast<std::size_t>(t)];
     const Tri& parent = h.tris[static_cast<std::size_t>(tri.parent)];
     const std::uint32_t m = tri.v[2];  // the split's new vertex
-    if (tri.face != FaceType::land || parent.edge[0] != EdgeType::land || wet(h.vertices[m]) ||
-        !seen.insert(m).second) {
+    if (tri.face != FaceType::land || parent.edge[0] != EdgeType::land || wet(h.vertices[m])) {
       continue;
     }
     // Child 0 is (v2, v0, m): its edge 1 is a half of the split edge and edge 2 a spoke; child 1
-    // is (v1, v2, m): edge 1 a spoke, edge 2 a half.
+    // is (v1, v2, m): edge 1 a spoke, edge 2 a half. A new vertex drains along one of its four
+    // edges, down to a lower end.
     for (std::size_t k = 1; k < 3; ++k) {
       const std::uint32_t other = tri.v[k == 1 ? 1 : 0];
-      if (tri.edge[k] != EdgeType::drain || h.vertices[other].ground >= h.vertices[m].ground) {
+      if (tri.edge[k] != EdgeType::drain || h.vertices[other].ground >= h.vertices[m].ground ||
+          !seen.insert({m, other}).second) {
         continue;
       }
       const bool half = (k == 1) == (tri.which == 0);
