@@ -25,6 +25,11 @@ bool near_cone_point(const Vec3d& p) {
   return std::abs(p[0]) > nearest || std::abs(p[1]) > nearest;
 }
 
+bool touches_cone_point(const Hierarchy& h, const Tri& t) {
+  return std::any_of(t.v.begin(), t.v.end(),
+                     [&](std::uint32_t v) { return near_cone_point(h.vertices[v].p); });
+}
+
 namespace {
 
 // Low-frequency field that shapes the continents: growth prefers faces where it is high.
@@ -126,8 +131,7 @@ class Classifier {
     for (std::size_t f = 0; f < faces_.size(); ++f) {
       const Tri& t = tri(faces_[f]);
       area_[f] = spherical_area(vertex(t.v[0]).p, vertex(t.v[1]).p, vertex(t.v[2]).p);
-      sea_only_[f] = near_cone_point(vertex(t.v[0]).p) || near_cone_point(vertex(t.v[1]).p) ||
-                     near_cone_point(vertex(t.v[2]).p);
+      sea_only_[f] = touches_cone_point(h_, t);
     }
   }
 

@@ -184,9 +184,7 @@ TEST(PlanetContinentMap, ConePointsStaySeaUnderTheMapsLand) {
   int beside = 0;
   for (std::int32_t t : m.river_faces) {
     const Tri& tri = m.hierarchy.tris[static_cast<std::size_t>(t)];
-    bool near = false;
-    for (std::uint32_t v : tri.v) near = near || near_cone_point(m.hierarchy.vertices[v].p);
-    if (!near) continue;
+    if (!touches_cone_point(m.hierarchy, tri)) continue;
     ++beside;
     EXPECT_EQ(tri.face, FaceType::sea) << "face " << t;
   }

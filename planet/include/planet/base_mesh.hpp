@@ -25,6 +25,10 @@ inline constexpr double kConePointSea = 0.05;
 /// Whether the unit vector p lies within kConePointSea of a cone point.
 bool near_cone_point(const Vec3d& p);
 
+/// Whether a corner of triangle t of h lies within kConePointSea of a cone point: the faces
+/// that stay sea.
+bool touches_cone_point(const Hierarchy& h, const Tri& t);
+
 struct BuildOptions {
   /// Threads for the vertex computations of the bisection levels. The result does not depend
   /// on it: each split is a pure function of its diamond and is linked in a fixed order.
