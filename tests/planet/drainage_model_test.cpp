@@ -1,7 +1,7 @@
 // The drainage relief model (planet.md "Relief models"): hung vertices with floors along their
 // drains. A grid draws the floors edge by edge, a lone sample walks to them: both give the same
-// bits anywhere, tiles do not depend on what was evaluated before, and the land drains without
-// pits and with Flint's law at zoom 11.
+// bits anywhere, tiles do not depend on what was evaluated before, the land drains without
+// pits and with Flint's law at zoom 11, and steep land is not planar facets at zoom 14.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -285,6 +285,43 @@ TEST(DrainageModel, LandDrainsWithFlintsLawAtZoom11) {
   EXPECT_GE(f["flint"]["theta"].get<double>(), 0.3);
   EXPECT_LE(f["flint"]["theta"].get<double>(), 0.8);
   EXPECT_GE(f["flint"]["r_squared"].get<double>(), 0.3);
+}
+
+TEST(DrainageModel, SteepLandIsNotPlanarFacetsAtZoom14) {
+  // Issue 20 item 4: below the length where a hung link reaches its steepest slope
+  // (kHangSteepest), every finer vertex hung at that slope from its lowest corner lands on the
+  // plane through its corners, so steep belts were planar facets hundreds of metres wide in
+  // zoom-14 hillshades. On the default planet's zoom-14 square (256² samples 4.77 m apart, the
+  // belt's side), a facet is a window of 16 × 16 samples whose gradients all but agree: their
+  // sum at least 0.9 of the sum of their lengths. 264 of the 900 windows were facets with every
+  // capped link at the same slope; 26 with generation 21's spread of the capped rises.
+  const auto& world = drainage_planet();
+  const double spacing = 4.77;
+  const double step = spacing / world->definition().radius * 180.0 / std::numbers::pi;
+  const int n = 256, window = 16;
+  const Grid g = grid_around(*world, 5.0, -175.0, step, n, n);
+  std::vector<double> ground(g.directions.size());
+  Sampler(world).grid(g.view(), world->level_for_spacing(spacing), 0.0,
+                      [&](std::size_t i, const PointSample& sample) { ground[i] = sample.ground; });
+  const auto at = [&](int r, int c) { return ground[static_cast<std::size_t>(r * n + c)]; };
+  int windows = 0, facets = 0;
+  for (int r0 = 1; r0 + window < n; r0 += window / 2) {
+    for (int c0 = 1; c0 + window < n; c0 += window / 2) {
+      double east = 0.0, north = 0.0, length = 0.0;
+      for (int r = r0; r < r0 + window; ++r) {
+        for (int c = c0; c < c0 + window; ++c) {
+          const double ge = (at(r, c + 1) - at(r, c - 1)) / (2.0 * spacing);
+          const double gn = (at(r - 1, c) - at(r + 1, c)) / (2.0 * spacing);
+          east += ge;
+          north += gn;
+          length += std::hypot(ge, gn);
+        }
+      }
+      ++windows;
+      if (std::hypot(east, north) >= 0.9 * length) ++facets;
+    }
+  }
+  EXPECT_LE(facets, windows / 20) << facets << " of " << windows << " windows are planar facets";
 }
 
 TEST(DrainageModel, RiversRunInValleysNotOnWalls) {

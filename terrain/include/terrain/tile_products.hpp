@@ -54,7 +54,9 @@ namespace terrain {
 /// (fewer pits: they follow the stored mesh's largest leaves); every continent is new. 20: the
 /// drainage model floors valley edges as it floors drains (fewer pits), and turns a drain that
 /// would run on along the edge being split across it (no stars of valleys at coarse vertices).
-inline constexpr int kProductGeneration = 20;
+/// 21: the drainage model spreads the rises of links at its steepest slope by up to 30 % either
+/// way (no planar facets on steep land at zoom 14).
+inline constexpr int kProductGeneration = 21;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
