@@ -203,15 +203,13 @@ constexpr double kAbyssShare = 0.6;
 // make the basin (up to about 300 m under a default planet's lakes), the fine ones its relief.
 constexpr double kLakeFloorSlope = 0.002;
 
-// The drainage model's slope of a link l metres long, before the region's factors.
-double hung_slope(const Rules& rules, double l) {
-  return rules.def.min_drain_slope * std::pow(l / 1000.0, -kHangConcavity);
-}
-
-// The drainage model's rise of a new vertex over the corner it drains to, l metres away.
-double hung_rise(const Rules& rules, double l, const Rules::Region& region) {
-  return std::min(kHangSteepest, hung_slope(rules, l)) * l *
-         std::pow(region.ruggedness, kHangRuggedness) * (1.0 + region.uplift / kHangUpliftScale);
+// The drainage model's rise of a new vertex over the corner it drains to, l metres away. A link
+// at the capped slope has its rise spread by `spread` (in [−1, 1]) times kHangCapSpread.
+double hung_rise(const Rules& rules, double l, const Rules::Region& region, double spread = 0.0) {
+  const double slope = rules.def.min_drain_slope * std::pow(l / 1000.0, -kHangConcavity);
+  const double share = slope > kHangSteepest ? kHangCapSpread * spread : 0.0;
+  return std::min(kHangSteepest, slope) * l * std::pow(region.ruggedness, kHangRuggedness) *
+         (1.0 + region.uplift / kHangUpliftScale) * (1.0 + share);
 }
 
 // Unit vector in the tangent plane at p closest to direction v (zero if v is radial).
@@ -510,10 +508,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
     }
   }
   if (hung) {
-    const double spread = hung_slope(rules, length[receiver]) > kHangSteepest
-                              ? kHangCapSpread * (2.0 * g2 - 1.0)
-                              : 0.0;
-    const double rise = hung_rise(rules, length[receiver], region) * (1.0 + spread);
+    const double rise = hung_rise(rules, length[receiver], region, 2.0 * g2 - 1.0);
     m.ground = lowest + rise;
     for (const Vertex* c : corner) {
       if ((c->flags & kLake) != 0) {
