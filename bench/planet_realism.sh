@@ -36,7 +36,7 @@ planets=("default $default 5 -175" "seed-7 $(seeded 7) 5 -165"
   "escarpment $default -32 105" "coastal $default -35 98.6")
 # channel_km2: the channel threshold the drop analysis chose (docs/analysis.md), * where no
 # candidate kept a constant drop and it is 1% of the square.
-printf '%-12s %4s %8s %8s %8s %7s %6s %6s %12s %8s\n' planet zoom cell_m pits_% closed_% theta r2 R_b channel_km2 seconds
+printf '%-12s %4s %8s %8s %8s %7s %6s %8s %6s %6s %12s %8s\n' planet zoom cell_m pits_% closed_% theta r2 theta_in r2_in R_b channel_km2 seconds
 for entry in "${planets[@]}"; do
   read -r name definition lat lon <<< "$entry"
   for zoom in 8 11 14; do
@@ -47,6 +47,7 @@ for entry in "${planets[@]}"; do
 import json, sys
 d = json.load(open(sys.argv[1]))
 f = d["flint"] or {}
+inside = d["flint_inside"] or {}
 def fmt(v, spec):
     return format(v, spec) if isinstance(v, (int, float)) else "-"
 rb = d["strahler"]["bifurcation_ratio"]
@@ -56,7 +57,8 @@ if channels["threshold_rule"] != "constant drop":
     threshold += "*"
 print(f"{sys.argv[2]:<12} {sys.argv[3]:>4} {d['input']['cell_size_m']:8.1f} "
       f"{100 * d['pits']['share']:8.3f} {100 * d['closed_depression_share']:8.2f} "
-      f"{fmt(f.get('theta'), '7.3f'):>7} {fmt(f.get('r_squared'), '6.3f'):>6} {fmt(rb, '6.2f'):>6} "
+      f"{fmt(f.get('theta'), '7.3f'):>7} {fmt(f.get('r_squared'), '6.3f'):>6} "
+      f"{fmt(inside.get('theta'), '8.3f'):>8} {fmt(inside.get('r_squared'), '6.3f'):>6} {fmt(rb, '6.2f'):>6} "
       f"{threshold:>12} {float(sys.argv[4]):8.2f}")
 PY
   done
@@ -83,8 +85,8 @@ done
 points="${SURVEY_POINTS:-64}"
 if [ "$points" -gt 0 ]; then
   echo
-  printf '%-12s %4s %7s %5s %5s %7s %6s %8s %9s %7s %6s\n' planet zoom squares all pits closed \
-    flint 'pits_%' 'closed_%' theta r2
+  printf '%-12s %4s %7s %5s %5s %7s %6s %8s %9s %7s %6s %9s %8s %6s\n' planet zoom squares all \
+    pits closed flint 'pits_%' 'closed_%' theta r2 flint_in theta_in r2_in
   for definition in "$default" "$work/seed-7.json" "$work/seed-42.json"; do
     for zoom in 8 11 14; do
       "$planet" survey "$definition" --points "$points" --zoom "$zoom" > "$work/survey.json"
@@ -92,12 +94,14 @@ if [ "$points" -gt 0 ]; then
 import json, sys
 d = json.load(open(sys.argv[1]))
 s, m = d["summary"], d["summary"]["median"]
+inside = s["flint_inside"]
 def fmt(v, scale, spec):
     return format(scale * v, spec) if isinstance(v, (int, float)) else "-"
 print(f"{sys.argv[2]:<12} {sys.argv[3]:>4} {s['squares']:7d} {s['meeting_all']:5d} "
       f"{s['meeting']['pits']:5d} {s['meeting']['closed_depressions']:7d} {s['meeting']['flint']:6d} "
       f"{fmt(m['pit_share'], 100, '8.3f')} {fmt(m['closed_depression_share'], 100, '9.2f')} "
-      f"{fmt(m['theta'], 1, '7.3f')} {fmt(m['r_squared'], 1, '6.3f')}")
+      f"{fmt(m['theta'], 1, '7.3f')} {fmt(m['r_squared'], 1, '6.3f')} {inside['meeting']:9d} "
+      f"{fmt(inside['median']['theta'], 1, '8.3f')} {fmt(inside['median']['r_squared'], 1, '6.3f')}")
 PY
     done
   done

@@ -239,6 +239,53 @@ Status validate(const AnalysisOptions& options) {
 
 }  // namespace
 
+std::vector<std::uint8_t> edge_fed(const Drainage& d) {
+  const int w = d.width, h = d.height;
+  std::vector<std::uint8_t> fed(d.cells(), 0);
+  const auto index = [w](int i, int j) {
+    return static_cast<std::size_t>(j) * static_cast<std::size_t>(w) + static_cast<std::size_t>(i);
+  };
+  for (int j = 0; j < h; ++j) {
+    for (int i = 0; i < w; ++i) {
+      const bool edge = i == 0 || j == 0 || i == w - 1 || j == h - 1;
+      const std::size_t b = index(i, j);
+      if (!edge || d.land[b] == 0) continue;
+      // The steepest descent among the edge cell's neighbours in the grid, as route_drainage
+      // takes it (ties to the first in kD8 order, the lower linear index).
+      double steepest = 0.0;
+      int best = -1;
+      for (int k = 0; k < 8; ++k) {
+        const int ni = i + kD8Dx[k], nj = j + kD8Dy[k];
+        if (ni < 0 || nj < 0 || ni >= w || nj >= h) continue;
+        const double drop = d.filled[b] - d.filled[index(ni, nj)];
+        if (!(drop > 0.0)) continue;
+        const double slope = (kD8Dx[k] != 0 && kD8Dy[k] != 0) ? drop / std::sqrt(2.0) : drop;
+        if (best < 0 || slope > steepest) {
+          steepest = slope;
+          best = k;
+        }
+      }
+      if (best < 0) continue;
+      const int ni = i + kD8Dx[best], nj = j + kD8Dy[best];
+      const bool inside = ni > 0 && nj > 0 && ni < w - 1 && nj < h - 1;
+      // Water passed along the edge reaches the grid where the last edge cell passes it in, and
+      // that cell is an edge cell of its own here; water passed to the sea leaves.
+      if (inside && d.land[index(ni, nj)] != 0) fed[index(ni, nj)] = 1;
+    }
+  }
+  // Downstream, upstream first (the reverse of the flood's order), down to the edge: edge cells
+  // are outlets, out of the fit, and not counted.
+  for (std::size_t k = d.order.size(); k-- > 0;) {
+    const auto c = static_cast<std::size_t>(d.order[k]);
+    const std::int32_t r = d.receiver[c];
+    if (fed[c] == 0 || r < 0) continue;
+    const int ri = r % w, rj = r / w;
+    const bool edge = ri == 0 || rj == 0 || ri == w - 1 || rj == h - 1;
+    if (!edge && d.land[static_cast<std::size_t>(r)] != 0) fed[static_cast<std::size_t>(r)] = 1;
+  }
+  return fed;
+}
+
 std::vector<DropTest> drop_analysis(const Drainage& d) {
   const double cell_area = d.cell_size * d.cell_size;
   const double lo = kDropMinCells * cell_area;
@@ -350,26 +397,38 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
   }
 
   // Channels: their length, and Flint's law on the raw surface.
+  // And Flint's law again over the channels no water from beyond the edge reaches.
   const std::vector<std::uint8_t> channel = channel_cells(d, g.channel_area);
-  std::vector<double> log_area, log_slope;
+  const std::vector<std::uint8_t> fed = edge_fed(d);
+  std::vector<double> log_area, log_slope, inside_log_area, inside_log_slope;
   for (std::size_t c = 0; c < n; ++c) {
     if (channel[c] == 0) continue;
     ++g.channel_cells;
+    g.edge_fed_channel_cells += fed[c];
     const std::int32_t r = d.receiver[c];
     if (r < 0) continue;
     g.channel_length += d8_distance(d, static_cast<std::int32_t>(c), r);
     if (const std::optional<double> slope = fit_slope(grid, d, c)) {
       log_area.push_back(std::log10(d.area[c]));
       log_slope.push_back(std::log10(*slope));
+      if (fed[c] == 0) {
+        inside_log_area.push_back(log_area.back());
+        inside_log_slope.push_back(log_slope.back());
+      }
     }
   }
   if (g.land_cells > 0) {
     g.drainage_density = g.channel_length / (static_cast<double>(g.land_cells) * cell_area) * 1e3;
   }
-  if (const std::optional<Line> line = fit_line(log_area, log_slope, 3)) {
-    g.flint = FlintFit{-line->slope, std::pow(10.0, line->intercept), line->r_squared,
-                       static_cast<std::int64_t>(log_area.size())};
-  }
+  const auto flint_fit = [](const std::vector<double>& x,
+                            const std::vector<double>& y) -> std::optional<FlintFit> {
+    const std::optional<Line> line = fit_line(x, y, 3);
+    if (!line) return std::nullopt;
+    return FlintFit{-line->slope, std::pow(10.0, line->intercept), line->r_squared,
+                    static_cast<std::int64_t>(x.size())};
+  };
+  g.flint = flint_fit(log_area, log_slope);
+  g.flint_inside = flint_fit(inside_log_area, inside_log_slope);
 
   g.slope_area = slope_area_profile(grid, d, channel);
 
@@ -459,13 +518,13 @@ nlohmann::json to_json(const Geomorphometry& g) {
   auto optional = [](const std::optional<double>& v) {
     return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
   };
-  nlohmann::json flint = nullptr;
-  if (g.flint) {
-    flint = {{"theta", g.flint->theta},
-             {"k_s", g.flint->steepness},
-             {"r_squared", g.flint->r_squared},
-             {"cells", g.flint->cells}};
-  }
+  auto flint = [](const std::optional<FlintFit>& fit) {
+    if (!fit) return nlohmann::json(nullptr);
+    return nlohmann::json{{"theta", fit->theta},
+                          {"k_s", fit->steepness},
+                          {"r_squared", fit->r_squared},
+                          {"cells", fit->cells}};
+  };
   nlohmann::json slope_area = nlohmann::json::array();
   for (const SlopeAreaBin& bin : g.slope_area) {
     slope_area.push_back({{"area_m2", {bin.area_from, bin.area_to}},
@@ -501,11 +560,13 @@ nlohmann::json to_json(const Geomorphometry& g) {
        {{"area_threshold_m2", g.channel_area},
         {"threshold_rule", threshold_rule_name(g.channel_threshold)},
         {"cells", g.channel_cells},
+        {"edge_fed_cells", g.edge_fed_channel_cells},
         {"length_m", g.channel_length},
         {"max_drainage_area_m2", g.max_drainage_area},
         {"drop_analysis", drops}}},
       {"drainage_density_per_km", g.drainage_density},
-      {"flint", flint},
+      {"flint", flint(g.flint)},
+      {"flint_inside", flint(g.flint_inside)},
       {"slope_area", slope_area},
       {"strahler",
        {{"max_order", g.max_strahler_order},

@@ -140,7 +140,7 @@ TEST(PlanetRealismSurvey, AnalysesASquareAtEachLandPointOfTheLattice) {
   ASSERT_GT(land_points, 5u);
   ASSERT_EQ(s["squares"].size(), land_points);
   // Each square's verdicts follow from its figures, and the summary counts them.
-  int pits = 0, closed = 0, flint = 0, all = 0;
+  int pits = 0, closed = 0, flint = 0, all = 0, flint_inside = 0;
   for (const nlohmann::json& square : s["squares"]) {
     const auto figures = analyze_planet(
         world, around(square["latitude"].get<double>(), square["longitude"].get<double>(), 48, 11));
@@ -154,6 +154,19 @@ TEST(PlanetRealismSurvey, AnalysesASquareAtEachLandPointOfTheLattice) {
     EXPECT_EQ(square["meets"]["pits"], pits_met);
     EXPECT_EQ(square["meets"]["closed_depressions"], closed_met);
     EXPECT_EQ(square["meets"]["flint"], flint_met);
+    // The fit without edge-fed channels, beside the verdicts and not in them.
+    const nlohmann::json& inside = (*figures)["flint_inside"];
+    if (inside.is_null()) {
+      EXPECT_TRUE(square["flint_inside"].is_null());
+    } else {
+      EXPECT_EQ(square["flint_inside"]["theta"], inside["theta"]);
+      EXPECT_EQ(square["flint_inside"]["r_squared"], inside["r_squared"]);
+      const bool met = inside["theta"].get<double>() >= 0.3 &&
+                       inside["theta"].get<double>() <= 0.8 &&
+                       inside["r_squared"].get<double>() >= 0.3;
+      EXPECT_EQ(square["flint_inside"]["meets_flint"], met);
+      flint_inside += met;
+    }
     pits += pits_met;
     closed += closed_met;
     flint += flint_met;
@@ -164,6 +177,7 @@ TEST(PlanetRealismSurvey, AnalysesASquareAtEachLandPointOfTheLattice) {
   EXPECT_EQ(s["summary"]["meeting"]["closed_depressions"], closed);
   EXPECT_EQ(s["summary"]["meeting"]["flint"], flint);
   EXPECT_EQ(s["summary"]["meeting_all"], all);
+  EXPECT_EQ(s["summary"]["flint_inside"]["meeting"], flint_inside);
   EXPECT_EQ(s["input"]["planet_id"], world->id());
 }
 

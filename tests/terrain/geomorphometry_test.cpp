@@ -256,6 +256,67 @@ TEST(Geomorphometry, AnInclinedPlaneHasTheSameSlopeInEveryBin) {
   }
 }
 
+// Water from beyond the grid enters where an edge cell's steepest descent in the grid is a cell
+// inside: here only the middle of the north edge, which passes it down the valley column. The
+// edge cells beside it fall more steeply along the edge, and the rest of the edge is lower than
+// the land inside, so nothing else is edge-fed.
+TEST(Geomorphometry, WaterFromBeyondEntersWhereAnEdgeCellFallsInward) {
+  const int w = 5, h = 6;
+  const std::vector<float> z = make_grid(w, h, [](int i, int j) -> double {
+    if (j == h - 1) return i == 2 ? 100.0 : (i == 1 || i == 3) ? 95.0 : 0.0;
+    if (i == 0 || j == 0 || i == w - 1) return 0.0;
+    return i == 2 ? 10.0 + j : 50.0;
+  });
+  const std::vector<std::uint8_t> fed = edge_fed(route_or_die({w, h, 10.0, z}));
+  std::vector<std::uint8_t> expected(z.size(), 0);
+  for (int j = 1; j <= 4; ++j) expected[static_cast<std::size_t>(j * w + 2)] = 1;
+  EXPECT_EQ(fed, expected);
+}
+
+// A valley whose head the grid's edge cuts off: every channel cell inside is edge-fed, so
+// Flint's fit over the channels that begin inside has no cell.
+TEST(Geomorphometry, AValleyTheEdgeCutsOffIsEdgeFedAllTheWayDown) {
+  const StreamPowerValley surface;
+  AnalysisOptions options;
+  options.channel_area = StreamPowerValley::area(surface.h - 4);
+  const Geomorphometry g = analyze_or_die(surface.grid(), options);
+  ASSERT_TRUE(g.flint.has_value());
+  // Rows 1..H−4 of the valley; row 0 is an edge cell, an outlet, never edge-fed.
+  EXPECT_EQ(g.edge_fed_channel_cells, surface.h - 4);
+  EXPECT_FALSE(g.flint_inside.has_value());
+}
+
+// A basin rising to the grid's edge takes in whatever the land beyond sends it; a cone falling
+// to the edge takes in nothing, so its fit without edge-fed channels is its fit.
+TEST(Geomorphometry, ABasinRisingToTheEdgeIsEdgeFedAndAConeIsNot) {
+  const int n = 41, centre = 20;
+  std::vector<float> basin = make_grid(
+      n, n, [](int i, int j) { return 100.0 + 10.0 * std::hypot(i - centre, j - centre); });
+  basin[static_cast<std::size_t>(centre * n + centre)] = std::numeric_limits<float>::quiet_NaN();
+  const Drainage d = route_or_die({n, n, 10.0, basin});
+  const std::vector<std::uint8_t> fed = edge_fed(d);
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const bool inside = i > 0 && j > 0 && i < n - 1 && j < n - 1;
+      const auto c = static_cast<std::size_t>(j * n + i);
+      // Inside: every land cell drains to the centre past cells the edge feeds.
+      EXPECT_EQ(fed[c], inside && d.land[c] != 0 ? 1 : 0) << "cell " << i << ", " << j;
+    }
+  }
+
+  const std::vector<float> cone = make_grid(
+      n, n, [](int i, int j) { return 1000.0 - 20.0 * std::hypot(i - centre, j - centre); });
+  AnalysisOptions options;
+  options.channel_area = 3 * 20.0 * 20.0;
+  const Geomorphometry g = analyze_or_die({n, n, 20.0, cone}, options);
+  EXPECT_EQ(g.edge_fed_channel_cells, 0);
+  ASSERT_TRUE(g.flint.has_value());
+  ASSERT_TRUE(g.flint_inside.has_value());
+  EXPECT_EQ(g.flint_inside->cells, g.flint->cells);
+  EXPECT_EQ(g.flint_inside->theta, g.flint->theta);
+  EXPECT_EQ(g.flint_inside->r_squared, g.flint->r_squared);
+}
+
 // The picture: a plane falling west with a one-cell pit, a river cell, a lake cell and a sea
 // column on its west edge; channels are the cells draining at least five cells' area.
 TEST(Geomorphometry, TheDrainagePictureShowsPitsChannelsWaterAndSeaNorthUp) {
@@ -518,6 +579,14 @@ void expect_sane_figures(const nlohmann::json& j, int size) {
   EXPECT_LE(j["flint"]["r_squared"].get<double>(), 1.0);
   EXPECT_TRUE(std::isfinite(j["flint"]["theta"].get<double>()));
   EXPECT_GT(j["flint"]["cells"].get<std::int64_t>(), 0);
+  // Edge-fed channels are some of the channels, and the fit without them has fewer cells.
+  EXPECT_GE(j["channels"]["edge_fed_cells"].get<std::int64_t>(), 0);
+  EXPECT_LE(j["channels"]["edge_fed_cells"], j["channels"]["cells"]);
+  if (!j["flint_inside"].is_null()) {
+    EXPECT_GE(j["flint_inside"]["r_squared"].get<double>(), 0.0);
+    EXPECT_LE(j["flint_inside"]["r_squared"].get<double>(), 1.0);
+    EXPECT_LE(j["flint_inside"]["cells"], j["flint"]["cells"]);
+  }
   ASSERT_TRUE(j["hypsometric_integral"].is_number());
   EXPECT_GE(j["hypsometric_integral"].get<double>(), 0.0);
   EXPECT_LE(j["hypsometric_integral"].get<double>(), 1.0);

@@ -87,6 +87,12 @@ struct Geomorphometry {
   std::int64_t channel_cells = 0;
   double max_drainage_area = 0.0;  ///< m², the largest over land cells
   std::optional<FlintFit> flint;   ///< none with fewer than 3 cells or no spread in area
+  /// Channel cells that water from beyond the grid's edge may reach (edge_fed): their drainage
+  /// area counts only the land inside the grid.
+  std::int64_t edge_fed_channel_cells = 0;
+  /// Flint's fit over the channel cells that are not edge-fed: the channels that begin inside
+  /// the grid, with their whole drainage area. None as for `flint`.
+  std::optional<FlintFit> flint_inside;
   /// Slope against drainage area in quarter decades, smallest areas first (empty bins left
   /// out): the curve Flint's law fits a line to, with the hillslopes below the channel head.
   std::vector<SlopeAreaBin> slope_area;
@@ -103,8 +109,9 @@ struct Geomorphometry {
   double mean_elevation = 0.0;
 };
 
-/// The version of to_json's layout: 2 since the slope–area profile. Caches of analyses key on it.
-inline constexpr int kAnalysisFormat = 2;
+/// The version of to_json's layout: 2 since the slope–area profile, 3 since the edge-fed
+/// channels. Caches of analyses key on it.
+inline constexpr int kAnalysisFormat = 3;
 
 /// A picture of an analysed grid, RGB8, width × height, the grid's last row (north) at the
 /// top: dry land as a hillshade lit from the north-west; channel cells (draining at least the
@@ -129,6 +136,14 @@ AnalysisPicture draw_drainage(const ElevationGrid& grid, const Drainage& drainag
 /// The same from a routing already made (`grid` must be the one `drainage` was routed from).
 Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& drainage,
                                const AnalysisOptions& options = {});
+
+/// The cells that water from beyond the grid may reach, 1 for each: a grid cut out of wider
+/// land drains water from outside through its edge cells (outlets of the routing), and water
+/// on an edge cell goes on, as D8 would send it, to its steepest strictly lower neighbour in
+/// the grid (unless a neighbour beyond is steeper). Each land cell inside the grid that is
+/// that neighbour of an edge land cell, and every cell downstream of it, is edge-fed; edge
+/// cells themselves are not.
+std::vector<std::uint8_t> edge_fed(const Drainage& drainage);
 
 /// The drop analysis of a routed grid: the networks that 16 candidate thresholds,
 /// spaced evenly in log from 25 cells to 5% of the grid's area, extract, each with its
