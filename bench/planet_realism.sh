@@ -81,15 +81,20 @@ done
 # Land squares over each whole planet (`planet survey`: a 512² square at each land point of a
 # 64-point equal-area lattice; docs/analysis.md "Surveys"): how many meet each target and all of
 # them, and the medians. The fixed squares above are where the rules were tuned; these are not.
-# SURVEY_POINTS=0 skips it (about 25 s a planet and zoom).
+# SURVEY_POINTS=0 skips it (about 25 s a planet and zoom). SURVEY_MARGIN=K drains each square with
+# K samples more on every side (`--margin`; docs/analysis.md "A square's edge"), about ten
+# times as long at 512.
 points="${SURVEY_POINTS:-64}"
+margin="${SURVEY_MARGIN:-0}"
 if [ "$points" -gt 0 ]; then
   echo
+  [ "$margin" -gt 0 ] && echo "surveys drained with a margin of $margin samples"
   printf '%-12s %4s %7s %5s %5s %7s %6s %8s %9s %7s %6s %9s %8s %6s\n' planet zoom squares all \
     pits closed flint 'pits_%' 'closed_%' theta r2 flint_in theta_in r2_in
   for definition in "$default" "$work/seed-7.json" "$work/seed-42.json"; do
     for zoom in 8 11 14; do
-      "$planet" survey "$definition" --points "$points" --zoom "$zoom" > "$work/survey.json"
+      "$planet" survey "$definition" --points "$points" --zoom "$zoom" --margin "$margin" \
+        > "$work/survey.json"
       python3 - "$work/survey.json" "$(basename "$definition" .json)" "$zoom" << 'PY'
 import json, sys
 d = json.load(open(sys.argv[1]))

@@ -38,15 +38,17 @@ Usage:
                                          one tile: S = geographic (EPSG:4326, TMS; default) or
                                          webmercator (EPSG:3857 XYZ, height images)
   planet layer-json PLANET.json          Cesium layer.json for the planet's tiles
-  planet analyze PLANET.json LAT LON [--zoom Z | --cell M] [--size N] [--channel-area A]
-       [--picture FILE.png]              geomorphometry of N × N samples (default 512) around
+  planet analyze PLANET.json LAT LON [--zoom Z | --cell M] [--size N] [--margin K]
+       [--channel-area A] [--picture FILE.png]
+                                         geomorphometry of N × N samples (default 512) around
                                          LAT, LON, M metres apart (default: a zoom-Z tile's
-                                         spacing, Z = 8), and a picture of its drainage:
+                                         spacing, Z = 8), drained with K more on every side
+                                         (default 0), and a picture of its drainage:
                                          docs/analysis.md
-  planet survey PLANET.json [--points N] [--zoom Z] [--size S]
+  planet survey PLANET.json [--points N] [--zoom Z] [--size S] [--margin K]
                                          geomorphometry of S × S land squares at the land
                                          points of an N-point equal-area lattice (default 64,
-                                         zoom 8, 512), against issue 20's targets
+                                         zoom 8, 512, margin 0), against issue 20's targets
   planet hypsometry PLANET.json [--samples N] [--cell M]
                                          the land's altitudes over the whole planet: N points
                                          (default 20 000) at M metres' detail (default 200)
@@ -318,15 +320,18 @@ int run(const Args& args) {
     const auto lon = tools::parse_number(args.positional[3]);
     const auto size = integer_arg("--size", args.get("--size", "512"), 2, kMaxPlanetAnalysisSide);
     const auto zoom = integer_arg("--zoom", args.get("--zoom", "8"), 0, PlanetTiles::max_zoom());
+    const auto margin =
+        integer_arg("--margin", args.get("--margin", "0"), 0, kMaxPlanetAnalysisSide / 2);
     if (!lat || !lon) {
       std::cerr << "planet analyze: LAT and LON must be numbers of degrees\n";
       return 2;
     }
-    if (!size || !zoom) return 2;
+    if (!size || !zoom || !margin) return 2;
     options.latitude = *lat;
     options.longitude = *lon;
     options.size = static_cast<int>(*size);
     options.zoom = static_cast<int>(*zoom);
+    options.margin = static_cast<int>(*margin);
     if (!positive_arg(args, "analyze", "--cell", "a number of metres", options.cell_size) ||
         !positive_arg(args, "analyze", "--channel-area", "an area in m²",
                       options.analysis.channel_area)) {
@@ -358,10 +363,13 @@ int run(const Args& args) {
     const auto points = integer_arg("--points", args.get("--points", "64"), 1, kMaxSurveyPoints);
     const auto zoom = integer_arg("--zoom", args.get("--zoom", "8"), 0, PlanetTiles::max_zoom());
     const auto size = integer_arg("--size", args.get("--size", "512"), 2, kMaxPlanetAnalysisSide);
-    if (!points || !zoom || !size) return 2;
+    const auto margin =
+        integer_arg("--margin", args.get("--margin", "0"), 0, kMaxPlanetAnalysisSide / 2);
+    if (!points || !zoom || !size || !margin) return 2;
     options.points = static_cast<int>(*points);
     options.zoom = static_cast<int>(*zoom);
     options.size = static_cast<int>(*size);
+    options.margin = static_cast<int>(*margin);
     Result<nlohmann::json> figures = planet_realism_survey(world, options);
     if (!figures) {
       std::cerr << "planet survey: " << figures.error().pointer << ": " << figures.error().message

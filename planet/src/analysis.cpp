@@ -21,6 +21,13 @@ std::optional<terrain::Error> bad_size(int size) {
                         "/size"};
 }
 
+std::optional<terrain::Error> bad_margin(int size, int margin) {
+  if (margin >= 0 && margin <= (kMaxPlanetAnalysisSide - size) / 2) return std::nullopt;
+  return terrain::Error{
+      "must be an integer from 0 to (" + std::to_string(kMaxPlanetAnalysisSide) + " - size) / 2",
+      "/margin"};
+}
+
 std::optional<terrain::Error> bad_zoom(int zoom) {
   if (zoom >= 0 && zoom <= PlanetTiles::max_zoom()) return std::nullopt;
   return terrain::Error{"must be a zoom from 0 to " + std::to_string(PlanetTiles::max_zoom()),
@@ -40,21 +47,31 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
     return Error{"must be a longitude from -180 to 180 degrees", "/longitude"};
   }
   if (auto bad = bad_size(options.size)) return *bad;
+  if (auto bad = bad_margin(options.size, options.margin)) return *bad;
   if (auto bad = bad_zoom(options.zoom); bad && options.cell_size == 0.0) return *bad;
   const double cell =
       options.cell_size == 0.0 ? planet->ground_spacing(options.zoom, 256) : options.cell_size;
   if (!std::isfinite(cell) || !(cell >= 0.01) || !(cell <= 1e5)) {
     return Error{"must be a number of metres from 0.01 to 100000", "/cell_size"};
   }
-  const int n = options.size;
+  const int n = options.size + 2 * options.margin;
   const double radius = planet->definition().radius;
   const double degree = std::numbers::pi / 180.0;
   const double half = 0.5 * (n - 1) * cell;
   // The square spans at most n·cell along a great circle: the tangent plane's east and north
   // axes become latitude and longitude offsets (exact on the central meridian and parallel,
   // within (side / radius)² elsewhere).
-  if (half / radius > 0.2)
+  // The square alone first, so that the error names what is too large.
+  if (0.5 * (options.size - 1) * cell / radius > 0.2) {
     return Error{"covers too much of the planet (size × cell_size)", "/size"};
+  }
+  if (half / radius > 0.2) {
+    return Error{"covers too much of the planet ((size + 2 × margin) × cell_size)", "/margin"};
+  }
+  const auto in_square = [&](int i, int j) {
+    return i >= options.margin && j >= options.margin && i < options.margin + options.size &&
+           j < options.margin + options.size;
+  };
   std::vector<float> elevation(static_cast<std::size_t>(n) * static_cast<std::size_t>(n));
   std::vector<std::uint8_t> sea(elevation.size(), 0), wet(elevation.size(), 0);
   std::int64_t sea_cells = 0, river_cells = 0, lake_cells = 0;
@@ -72,21 +89,26 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
       const std::size_t c =
           static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(i);
       elevation[c] = static_cast<float>(s.ground);
+      const int counted = in_square(i, j) ? 1 : 0;
       if (s.type == SurfaceType::sea) {
         sea[c] = 1;
-        ++sea_cells;
+        sea_cells += counted;
       } else if (s.type == SurfaceType::river) {
         wet[c] = terrain::kFlowingWater;
-        ++river_cells;
+        river_cells += counted;
       } else if (s.type == SurfaceType::lake) {
         wet[c] = terrain::kStandingWater;  // a lake's floor is a depression by nature
-        ++lake_cells;
+        lake_cells += counted;
       }
     }
   }
   const terrain::ElevationGrid grid{n, n, cell, elevation, std::nullopt, sea, wet};
-  terrain::Result<terrain::Geomorphometry> figures =
-      terrain::analyze(grid, options.analysis, picture);
+  terrain::AnalysisOptions analysis = options.analysis;
+  if (options.margin > 0) {
+    const int end = options.margin + options.size;
+    analysis.window = terrain::AnalysisWindow{options.margin, options.margin, end, end};
+  }
+  terrain::Result<terrain::Geomorphometry> figures = terrain::analyze(grid, analysis, picture);
   if (!figures) return figures.error();
   nlohmann::json out = terrain::to_json(*figures);
   out["input"] = {{"kind", "planet"},
@@ -95,6 +117,7 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
                   {"longitude", options.longitude},
                   {"cell_size_m", cell},
                   {"level", planet->level_for_spacing(cell)},
+                  {"margin", options.margin},
                   {"sea_cells", sea_cells},
                   {"river_cells", river_cells},
                   {"lake_cells", lake_cells}};
@@ -166,6 +189,7 @@ terrain::Result<nlohmann::json> planet_realism_survey(const std::shared_ptr<cons
   }
   if (auto bad = bad_zoom(options.zoom)) return *bad;
   if (auto bad = bad_size(options.size)) return *bad;
+  if (auto bad = bad_margin(options.size, options.margin)) return *bad;
   const RealismTargets& target = options.targets;
   const double cell = planet->ground_spacing(options.zoom, 256);
   const int level = planet->level_for_spacing(cell);
@@ -186,6 +210,7 @@ terrain::Result<nlohmann::json> planet_realism_survey(const std::shared_ptr<cons
     square.longitude = longitude;
     square.zoom = options.zoom;
     square.size = options.size;
+    square.margin = options.margin;
     terrain::Result<nlohmann::json> figures = analyze_planet(planet, square);
     if (!figures) return figures.error();
     const nlohmann::json& f = *figures;
@@ -240,7 +265,8 @@ terrain::Result<nlohmann::json> planet_realism_survey(const std::shared_ptr<cons
   };
   nlohmann::json out;
   out["input"] = {{"kind", "planet"},     {"planet_id", planet->id()}, {"points", options.points},
-                  {"zoom", options.zoom}, {"size", options.size},      {"cell_size_m", cell}};
+                  {"zoom", options.zoom}, {"size", options.size},      {"margin", options.margin},
+                  {"cell_size_m", cell}};
   out["targets"] = {{"max_pit_share", target.max_pit_share},
                     {"max_closed_depression_share", target.max_closed_depression_share},
                     {"theta", {target.min_theta, target.max_theta}},

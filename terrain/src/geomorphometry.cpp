@@ -3,6 +3,7 @@
 #include "terrain/geomorphometry.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -82,11 +83,12 @@ std::optional<double> fit_slope(const ElevationGrid& grid, const Drainage& d, st
 
 /// The slope–area profile (Geomorphometry::slope_area) over every land cell fit_slope counts.
 std::vector<SlopeAreaBin> slope_area_profile(const ElevationGrid& grid, const Drainage& d,
-                                             const std::vector<std::uint8_t>& channel) {
+                                             const std::vector<std::uint8_t>& channel,
+                                             const std::vector<std::uint8_t>& window) {
   // Bin k holds areas in [10^(k/4), 10^((k+1)/4)): its cells' slopes and channel cells.
   std::map<int, std::pair<std::vector<double>, std::int64_t>> by_bin;
   for (std::size_t c = 0; c < d.cells(); ++c) {
-    if (d.land[c] == 0) continue;
+    if (d.land[c] == 0 || window[c] == 0) continue;
     const std::optional<double> slope = fit_slope(grid, d, c);
     if (!slope) continue;
     auto& [slopes, channels] = by_bin[static_cast<int>(std::floor(4.0 * std::log10(d.area[c])))];
@@ -110,12 +112,13 @@ std::vector<SlopeAreaBin> slope_area_profile(const ElevationGrid& grid, const Dr
 struct StreamNetwork {
   std::vector<std::int64_t> streams_per_order;  ///< [ω − 1] = number of streams of order ω
   /// Drop of each complete stream (filled elevation at its start minus at the cell it ends in:
-  /// the junction with a higher order or the sea), by order; streams the grid's edge cuts off
-  /// are left out, their drop being the window's, not the river's.
+  /// the junction with a higher order or the sea), by order; streams the grid's edge or the
+  /// analysis window cuts off are left out, their drop being the window's, not the river's.
   std::vector<std::vector<double>> drops_per_order;
 };
 
-StreamNetwork trace_streams(const Drainage& d, const std::vector<std::uint8_t>& channel) {
+StreamNetwork trace_streams(const Drainage& d, const std::vector<std::uint8_t>& channel,
+                            std::span<const std::uint8_t> window) {
   const std::size_t n = d.cells();
   const std::vector<int> strahler = strahler_orders(d.receiver, d.order, channel);
   std::vector<std::uint8_t> continued(n, 0);
@@ -142,7 +145,8 @@ StreamNetwork trace_streams(const Drainage& d, const std::vector<std::uint8_t>& 
       last = static_cast<std::size_t>(next);
       next = d.receiver[last];
     }
-    if (next < 0) continue;  // ends on the grid's edge
+    // Ends on the grid's edge, or leaves the window.
+    if (next < 0 || window[static_cast<std::size_t>(next)] == 0) continue;
     network.drops_per_order[static_cast<std::size_t>(order - 1)].push_back(
         d.filled[c] - d.filled[static_cast<std::size_t>(next)]);
   }
@@ -208,10 +212,12 @@ std::optional<double> drop_t_statistic(const DropSamples& s) {
   return (m1 - m2) / se;
 }
 
-std::vector<std::uint8_t> channel_cells(const Drainage& d, double channel_area) {
+/// Land cells of the window draining at least `channel_area`.
+std::vector<std::uint8_t> channel_cells(const Drainage& d, double channel_area,
+                                        std::span<const std::uint8_t> window) {
   std::vector<std::uint8_t> channel(d.cells(), 0);
   for (std::size_t c = 0; c < d.cells(); ++c) {
-    channel[c] = d.land[c] != 0 && d.area[c] >= channel_area ? 1 : 0;
+    channel[c] = d.land[c] != 0 && window[c] != 0 && d.area[c] >= channel_area ? 1 : 0;
   }
   return channel;
 }
@@ -287,15 +293,22 @@ std::vector<std::uint8_t> edge_fed(const Drainage& d) {
 }
 
 std::vector<DropTest> drop_analysis(const Drainage& d) {
+  return drop_analysis(d, std::vector<std::uint8_t>(d.cells(), 1));
+}
+
+std::vector<DropTest> drop_analysis(const Drainage& d, std::span<const std::uint8_t> window) {
+  assert(window.size() == d.cells());
   const double cell_area = d.cell_size * d.cell_size;
+  const auto window_cells = std::count(window.begin(), window.end(), std::uint8_t{1});
   const double lo = kDropMinCells * cell_area;
-  const double hi = kDropMaxShare * static_cast<double>(d.cells()) * cell_area;
+  const double hi = kDropMaxShare * static_cast<double>(window_cells) * cell_area;
   std::vector<DropTest> table;
   for (int k = 0; k < kDropThresholds; ++k) {
     const double f = static_cast<double>(k) / static_cast<double>(kDropThresholds - 1);
     DropTest test;
     test.channel_area = lo * std::pow(hi / lo, f);
-    const StreamNetwork network = trace_streams(d, channel_cells(d, test.channel_area));
+    const StreamNetwork network =
+        trace_streams(d, channel_cells(d, test.channel_area, window), window);
     test.streams_per_order = network.streams_per_order;
     test.bifurcation_ratio = bifurcation_ratio(network.streams_per_order);
     const DropSamples samples = drop_samples(network);
@@ -341,10 +354,24 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
   const int w = d.width;
   const int h = d.height;
   const std::span<const float> raw = grid.elevation;
+  const AnalysisWindow window = options.window.value_or(AnalysisWindow{0, 0, w, h});
+  if (!(window.x0 >= 0 && window.y0 >= 0 && window.x0 < window.x1 && window.y0 < window.y1 &&
+        window.x1 <= w && window.y1 <= h)) {
+    return Error{"must be a non-empty rectangle of the grid's cells", "/window"};
+  }
+  std::vector<std::uint8_t> in_window(n, 0);
+  for (int j = window.y0; j < window.y1; ++j) {
+    for (int i = window.x0; i < window.x1; ++i) {
+      in_window[static_cast<std::size_t>(j) * static_cast<std::size_t>(w) +
+                static_cast<std::size_t>(i)] = 1;
+    }
+  }
+  const auto window_cells = static_cast<std::size_t>(window.x1 - window.x0) *
+                            static_cast<std::size_t>(window.y1 - window.y0);
 
   Geomorphometry g;
-  g.width = w;
-  g.height = h;
+  g.width = window.x1 - window.x0;
+  g.height = window.y1 - window.y0;
   g.cell_size = d.cell_size;
   g.depression_epsilon = options.depression_epsilon;
   const double cell_area = d.cell_size * d.cell_size;
@@ -352,12 +379,12 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
     g.channel_area = options.channel_area;
     g.channel_threshold = ChannelThreshold::given;
   } else {
-    g.drop_analysis = drop_analysis(d);
+    g.drop_analysis = drop_analysis(d, in_window);
     if (const std::optional<double> area = constant_drop_threshold(g.drop_analysis)) {
       g.channel_area = *area;
       g.channel_threshold = ChannelThreshold::constant_drop;
     } else {
-      g.channel_area = kFallbackChannelShare * static_cast<double>(n) * cell_area;
+      g.channel_area = kFallbackChannelShare * static_cast<double>(window_cells) * cell_area;
       g.channel_threshold = ChannelThreshold::share_of_area;
     }
   }
@@ -366,8 +393,8 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
   double sum = 0.0;
   double lo = std::numeric_limits<double>::infinity();
   double hi = -std::numeric_limits<double>::infinity();
-  for (int j = 0; j < h; ++j) {
-    for (int i = 0; i < w; ++i) {
+  for (int j = window.y0; j < window.y1; ++j) {
+    for (int i = window.x0; i < window.x1; ++i) {
       const std::size_t c =
           static_cast<std::size_t>(j) * static_cast<std::size_t>(w) + static_cast<std::size_t>(i);
       if (d.land[c] == 0) continue;
@@ -398,7 +425,7 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
 
   // Channels: their length, and Flint's law on the raw surface.
   // And Flint's law again over the channels no water from beyond the edge reaches.
-  const std::vector<std::uint8_t> channel = channel_cells(d, g.channel_area);
+  const std::vector<std::uint8_t> channel = channel_cells(d, g.channel_area, in_window);
   const std::vector<std::uint8_t> fed = edge_fed(d);
   std::vector<double> log_area, log_slope, inside_log_area, inside_log_slope;
   for (std::size_t c = 0; c < n; ++c) {
@@ -430,9 +457,9 @@ Result<Geomorphometry> analyze(const ElevationGrid& grid, const Drainage& d,
   g.flint = flint_fit(log_area, log_slope);
   g.flint_inside = flint_fit(inside_log_area, inside_log_slope);
 
-  g.slope_area = slope_area_profile(grid, d, channel);
+  g.slope_area = slope_area_profile(grid, d, channel, in_window);
 
-  const StreamNetwork network = trace_streams(d, channel);
+  const StreamNetwork network = trace_streams(d, channel, in_window);
   g.max_strahler_order = static_cast<int>(network.streams_per_order.size());
   g.streams_per_order = network.streams_per_order;
   g.bifurcation_ratio = bifurcation_ratio(network.streams_per_order);

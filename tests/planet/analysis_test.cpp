@@ -75,6 +75,33 @@ TEST(PlanetAnalysis, SeaIsWaterNotLand) {
   EXPECT_EQ(sea_pixels, sea);
 }
 
+// A margin is sampled and drained with the square but not measured: the square's own samples
+// and counts, and valleys that enter it drain the margin too.
+TEST(PlanetAnalysis, AMarginIsDrainedButNotMeasured) {
+  // Across the continent's west coast on the antimeridian, as above, so that the margin holds
+  // sea the square does not count.
+  PlanetAnalysisOptions square = around(5.0, 178.0, 64, 3);
+  PlanetAnalysisOptions with_margin = square;
+  with_margin.margin = 32;
+  const auto a = analyze_planet(default_planet(), square);
+  const auto b = analyze_planet(default_planet(), with_margin);
+  ASSERT_TRUE(a && b);
+  EXPECT_EQ((*b)["input"]["margin"], 32);
+  EXPECT_EQ((*b)["grid"]["width"], 64);
+  EXPECT_EQ((*b)["grid"]["height"], 64);
+  // The same samples: the same land, sea and elevations (positions to rounding).
+  EXPECT_EQ((*b)["land_cells"], (*a)["land_cells"]);
+  EXPECT_EQ((*b)["input"]["sea_cells"], (*a)["input"]["sea_cells"]);
+  for (const char* figure : {"min", "mean", "max"}) {
+    EXPECT_NEAR((*b)["elevation_m"][figure].get<double>(),
+                (*a)["elevation_m"][figure].get<double>(), 1e-3)
+        << figure;
+  }
+  // Water from the margin reaches the square: its largest drainage area grows.
+  EXPECT_GT((*b)["channels"]["max_drainage_area_m2"].get<double>(),
+            (*a)["channels"]["max_drainage_area_m2"].get<double>());
+}
+
 TEST(PlanetAnalysis, IsReproducible) {
   PlanetAnalysisOptions o = around(20.0, 30.0, 48, 0);
   o.cell_size = 500.0;
@@ -101,6 +128,15 @@ TEST(PlanetAnalysis, RefusesBadOptionsNamingTheField) {
       {around(0.0, 0.0, 64, 99), "/zoom"},
       {around(0.0, 0.0, 2048, 0), "/size"},  // a quarter of the planet: not a plane
   };
+  PlanetAnalysisOptions bad_margin = around(0.0, 0.0, 64, 8);
+  for (const int margin : {-1, (kMaxPlanetAnalysisSide - 64) / 2 + 1}) {
+    bad_margin.margin = margin;
+    EXPECT_EQ(analyze_planet(default_planet(), bad_margin).error().pointer, "/margin") << margin;
+  }
+  bad_margin = around(0.0, 0.0, 512, 4);
+  ASSERT_TRUE(analyze_planet(default_planet(), bad_margin));  // 2 500 km: the square fits
+  bad_margin.margin = 512;                                    // 7 500 km: too much of the planet
+  EXPECT_EQ(analyze_planet(default_planet(), bad_margin).error().pointer, "/margin");
   for (const auto& c : cases) {
     const auto result = analyze_planet(default_planet(), c.options);
     ASSERT_FALSE(result) << c.pointer;
@@ -215,6 +251,9 @@ TEST(PlanetRealismSurvey, RefusesBadOptionsNamingTheField) {
   options.zoom = 8;
   options.size = 1;
   EXPECT_EQ(planet_realism_survey(default_planet(), options).error().pointer, "/size");
+  options.size = 512;
+  options.margin = -2;
+  EXPECT_EQ(planet_realism_survey(default_planet(), options).error().pointer, "/margin");
 }
 
 TEST(PlanetHypsometry, SummarisesTheLandsAltitudes) {

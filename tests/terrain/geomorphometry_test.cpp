@@ -410,6 +410,57 @@ TEST(Geomorphometry, AStreamEndingInTheSeaDropsFromItsHeadToTheSea) {
   }
 }
 
+// A window analyses its cells as a grid of their own, but with the drainage routed over the
+// whole grid: the stream-power valley's rows in the middle third keep the areas of every row
+// above them, and Flint's fit over them finds the valley's θ. Cut out as a grid of its own, the
+// same rows drain only themselves, and the fit is off.
+TEST(Geomorphometry, AWindowKeepsTheAreaDrainedFromBeyondIt) {
+  const StreamPowerValley surface;
+  const auto [w, h, theta] = std::tuple{surface.w, surface.h, surface.theta};
+  const int top = 2 * h / 3, bottom = h / 3;
+  AnalysisOptions options;
+  options.channel_area = StreamPowerValley::area(top);  // the valley's cells in the window
+  options.window = AnalysisWindow{0, bottom, w, top};
+  const Geomorphometry g = analyze_or_die(surface.grid(), options);
+  EXPECT_EQ(g.width, w);
+  EXPECT_EQ(g.height, top - bottom);
+  EXPECT_EQ(g.land_cells, std::int64_t{w} * (top - bottom));
+  EXPECT_EQ(g.channel_cells, top - bottom);
+  ASSERT_TRUE(g.flint.has_value());
+  EXPECT_EQ(g.flint->cells, top - bottom);
+  EXPECT_NEAR(g.flint->theta, theta, 2e-3);
+  EXPECT_GT(g.flint->r_squared, 0.9999);
+
+  const std::vector<float> rows(surface.z.begin() + std::ptrdiff_t{bottom} * w,
+                                surface.z.begin() + std::ptrdiff_t{top} * w);
+  AnalysisOptions cut;
+  cut.channel_area = 5 * (w - 2) * surface.cell * surface.cell;
+  const Geomorphometry alone = analyze_or_die({w, top - bottom, surface.cell, rows}, cut);
+  ASSERT_TRUE(alone.flint.has_value());
+  EXPECT_GT(std::abs(alone.flint->theta - theta), 0.1) << alone.flint->theta;
+}
+
+// A stream that leaves the window is cut off there, as the grid's edge cuts one: the valley
+// that ends in the sea has a complete stream, but not in a window that leaves the sea out.
+TEST(Geomorphometry, AStreamLeavingTheWindowHasNoDrop) {
+  const int w = 41, h = 301, valley = 20;
+  const double cell = 30.0;
+  const std::vector<float> z = make_grid(w, h, [&](int i, int j) {
+    return j <= 2 ? -5.0 : 3.0 * (j - 2) + cell * std::abs(i - valley);
+  });
+  AnalysisOptions options;
+  options.window = AnalysisWindow{0, 10, w, h};
+  const Geomorphometry g = analyze_or_die({w, h, cell, z, 0.0f}, options);
+  ASSERT_EQ(g.drop_analysis.size(), 16u);
+  // Candidates from 25 cells to 5% of the window's area.
+  EXPECT_NEAR(g.drop_analysis.back().channel_area, 0.05 * w * (h - 10) * cell * cell, 1e-6);
+  for (const DropTest& test : g.drop_analysis) {
+    EXPECT_EQ(test.streams_per_order, std::vector<std::int64_t>{1}) << test.channel_area;
+    EXPECT_EQ(test.first_order_streams, 0) << test.channel_area;
+  }
+  EXPECT_EQ(g.channel_threshold, ChannelThreshold::share_of_area);
+}
+
 /// A drop analysis table whose candidates have these t statistics (none: untested).
 std::vector<DropTest> drop_table(const std::vector<std::optional<double>>& t) {
   std::vector<DropTest> table(t.size());
@@ -491,6 +542,15 @@ TEST(Geomorphometry, TheSameGridGivesTheSameBits) {
   }
 }
 
+// A window of the whole grid is no window.
+TEST(Geomorphometry, AWindowOfTheWholeGridChangesNothing) {
+  const int w = 64, h = 48;
+  const ElevationGrid grid{w, h, 25.0, rough_surface(w, h)};
+  AnalysisOptions whole;
+  whole.window = AnalysisWindow{0, 0, w, h};
+  EXPECT_EQ(to_json(analyze_or_die(grid, whole)), to_json(analyze_or_die(grid)));
+}
+
 TEST(Geomorphometry, MalformedInputIsRefusedNamingTheField) {
   const std::vector<float> z(16, 1.0f);
   const std::vector<std::uint8_t> short_water(3, 0);
@@ -501,9 +561,11 @@ TEST(Geomorphometry, MalformedInputIsRefusedNamingTheField) {
     AnalysisOptions options;
     const char* pointer;
   };
-  AnalysisOptions negative_area, nan_epsilon;
+  AnalysisOptions negative_area, nan_epsilon, empty_window, window_beyond;
   negative_area.channel_area = -1.0;
   nan_epsilon.depression_epsilon = std::nan("");
+  empty_window.window = AnalysisWindow{1, 1, 1, 3};
+  window_beyond.window = AnalysisWindow{0, 0, 4, 5};
   const Case cases[] = {
       {{0, 4, 1.0, z}, {}, "/width"},
       {{4, 0, 1.0, z}, {}, "/height"},
@@ -519,6 +581,8 @@ TEST(Geomorphometry, MalformedInputIsRefusedNamingTheField) {
       {{4, 4, 1.0, z, nan}, {}, "/sea_level"},
       {{4, 4, 1.0, z}, negative_area, "/channel_area"},
       {{4, 4, 1.0, z}, nan_epsilon, "/depression_epsilon"},
+      {{4, 4, 1.0, z}, empty_window, "/window"},
+      {{4, 4, 1.0, z}, window_beyond, "/window"},
   };
   for (const Case& c : cases) {
     const Result<Geomorphometry> g = analyze(c.grid, c.options);

@@ -25,14 +25,20 @@ struct PlanetAnalysisOptions {
   double cell_size = 0.0;
   int zoom = 8;    ///< used when cell_size is 0 (geographic tiles: 265 m per sample at zoom 8)
   int size = 512;  ///< samples per side
+  /// Samples added on every side and drained with the square, but not measured
+  /// (terrain::AnalysisOptions::window): valleys that enter the square bring the area they
+  /// drain out to `margin` samples beyond its edge. size + 2·margin is at most
+  /// kMaxPlanetAnalysisSide.
+  int margin = 0;
   terrain::AnalysisOptions analysis;
 };
 
 /// Samples `size` × `size` points on the plane tangent at the centre (east, north), `cell_size`
-/// apart, and analyses them: sea samples are water (outlets), river samples wet land. The JSON
-/// is terrain::to_json's figures plus "input" (the planet id, centre, cell size, level, sea and
-/// river cells). Errors name the field: /latitude, /longitude, /cell_size, /zoom, /size, and
-/// terrain::analyze's. With `picture`, also draws the square (terrain::draw_drainage).
+/// apart, and `margin` more on every side, and analyses the square: sea samples are water
+/// (outlets), river samples wet land. The JSON is terrain::to_json's figures plus "input" (the
+/// planet id, centre, cell size, level, margin, sea and river cells of the square). Errors name
+/// the field: /latitude, /longitude, /cell_size, /zoom, /size, /margin, and terrain::analyze's.
+/// With `picture`, also draws the whole grid, margin included (terrain::draw_drainage).
 terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Planet>& planet,
                                                const PlanetAnalysisOptions& options,
                                                terrain::AnalysisPicture* picture = nullptr);
@@ -70,13 +76,14 @@ struct PlanetSurveyOptions {
   int points = 64;
   int zoom = 8;    ///< each square's samples are a 256² tile's of this zoom apart
   int size = 512;  ///< samples per side of each square
+  int margin = 0;  ///< drained around each square, not measured (PlanetAnalysisOptions)
   RealismTargets targets;
 };
 
 /// Geomorphometry of land squares spread over the whole planet, so that realism is measured
 /// wherever land is, not only where a fixed square lies: each square's figures (analyze_planet)
 /// and whether it meets each target, and over all squares how many meet each and all of them
-/// and the medians. Errors name /points, or analyze_planet's /zoom and /size.
+/// and the medians. Errors name /points, or analyze_planet's /zoom, /size and /margin.
 terrain::Result<nlohmann::json> planet_realism_survey(const std::shared_ptr<const Planet>& planet,
                                                       const PlanetSurveyOptions& options);
 

@@ -17,6 +17,11 @@
 
 namespace terrain {
 
+/// Cells [x0, x1) × [y0, y1) of a grid.
+struct AnalysisWindow {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+
 struct AnalysisOptions {
   /// Cells draining at least this many m² are channel cells; 0 lets the drop analysis choose
   /// (drop_analysis, constant_drop_threshold), or 1% of the grid's area (width · height ·
@@ -24,6 +29,11 @@ struct AnalysisOptions {
   double channel_area = 0.0;
   /// A land cell is in a closed depression when filling raises it by more than this (metres).
   double depression_epsilon = 1e-3;
+  /// The cells every figure describes, as if they were the grid, while the drainage (filling,
+  /// receivers, areas) is routed over the whole grid: land around a window adds the water it
+  /// sends in. Streams leaving the window end there, cut off as by a grid's edge; edge-fed
+  /// channels are those the whole grid's edge feeds. None: the whole grid.
+  std::optional<AnalysisWindow> window;
 };
 
 /// A least-squares fit of log10 S = log10 k_s − θ · log10 A over channel cells with S > 0.
@@ -125,7 +135,7 @@ struct AnalysisPicture {
 
 /// Routes the grid (route_drainage) and computes every figure; with `picture`, also draws the
 /// routing (draw_drainage) when it succeeds. Errors name the field, as route_drainage's, plus
-/// /channel_area and /depression_epsilon (finite and ≥ 0).
+/// /channel_area and /depression_epsilon (finite and ≥ 0) and /window (non-empty, in the grid).
 Result<Geomorphometry> analyze(const ElevationGrid& grid, const AnalysisOptions& options = {},
                                AnalysisPicture* picture = nullptr);
 
@@ -149,6 +159,8 @@ std::vector<std::uint8_t> edge_fed(const Drainage& drainage);
 /// spaced evenly in log from 25 cells to 5% of the grid's area, extract, each with its
 /// Strahler streams and the t-test of Broscoe's constant drop (docs/analysis.md).
 std::vector<DropTest> drop_analysis(const Drainage& drainage);
+/// The same over the cells of `window` (1 for each; the candidates span its area instead).
+std::vector<DropTest> drop_analysis(const Drainage& drainage, std::span<const std::uint8_t> window);
 
 /// The smallest candidate threshold whose streams keep a constant drop (|t| < 2) along with
 /// every larger candidate that has a t; none when the largest testable one fails or none has a t.
