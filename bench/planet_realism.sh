@@ -82,7 +82,7 @@ done
 # 64-point equal-area lattice; docs/analysis.md "Surveys"): how many meet each target and all of
 # them, and the medians. The fixed squares above are where the rules were tuned; these are not.
 # SURVEY_POINTS=0 skips it (about 25 s a planet and zoom). SURVEY_MARGIN=K drains each square with
-# K samples more on every side (`--margin`; docs/analysis.md "A square's edge"), about ten
+# K samples more on every side (`--margin`; docs/analysis.md "A square's edge"), three to six
 # times as long at 512.
 points="${SURVEY_POINTS:-64}"
 margin="${SURVEY_MARGIN:-0}"
