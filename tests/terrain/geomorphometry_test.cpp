@@ -545,7 +545,8 @@ TEST(Geomorphometry, TheSameGridGivesTheSameBits) {
 // A window of the whole grid is no window.
 TEST(Geomorphometry, AWindowOfTheWholeGridChangesNothing) {
   const int w = 64, h = 48;
-  const ElevationGrid grid{w, h, 25.0, rough_surface(w, h)};
+  const std::vector<float> z = rough_surface(w, h);  // the grid holds a view of it
+  const ElevationGrid grid{w, h, 25.0, z};
   AnalysisOptions whole;
   whole.window = AnalysisWindow{0, 0, w, h};
   EXPECT_EQ(to_json(analyze_or_die(grid, whole)), to_json(analyze_or_die(grid)));
