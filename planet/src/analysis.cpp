@@ -68,9 +68,10 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
   if (half / radius > 0.2) {
     return Error{"covers too much of the planet ((size + 2 × margin) × cell_size)", "/margin"};
   }
+  // The square within the margin: what every figure describes.
+  const int first = options.margin, end = options.margin + options.size;
   const auto in_square = [&](int i, int j) {
-    return i >= options.margin && j >= options.margin && i < options.margin + options.size &&
-           j < options.margin + options.size;
+    return i >= first && j >= first && i < end && j < end;
   };
   std::vector<float> elevation(static_cast<std::size_t>(n) * static_cast<std::size_t>(n));
   std::vector<std::uint8_t> sea(elevation.size(), 0), wet(elevation.size(), 0);
@@ -104,10 +105,7 @@ terrain::Result<nlohmann::json> analyze_planet(const std::shared_ptr<const Plane
   }
   const terrain::ElevationGrid grid{n, n, cell, elevation, std::nullopt, sea, wet};
   terrain::AnalysisOptions analysis = options.analysis;
-  if (options.margin > 0) {
-    const int end = options.margin + options.size;
-    analysis.window = terrain::AnalysisWindow{options.margin, options.margin, end, end};
-  }
+  if (options.margin > 0) analysis.window = terrain::AnalysisWindow{first, first, end, end};
   terrain::Result<terrain::Geomorphometry> figures = terrain::analyze(grid, analysis, picture);
   if (!figures) return figures.error();
   nlohmann::json out = terrain::to_json(*figures);

@@ -119,21 +119,8 @@ Result<Drainage> route_drainage(const ElevationGrid& grid) {
       const std::size_t c =
           static_cast<std::size_t>(j) * static_cast<std::size_t>(w) + static_cast<std::size_t>(i);
       if (d.land[c] == 0) continue;
-      double steepest = 0.0;
-      std::int32_t best = -1;
-      for (int k = 0; k < 8; ++k) {
-        const std::size_t nc =
-            static_cast<std::size_t>(j + kD8Dy[k]) * static_cast<std::size_t>(w) +
-            static_cast<std::size_t>(i + kD8Dx[k]);
-        const double drop = d.filled[c] - d.filled[nc];
-        if (!(drop > 0.0)) continue;
-        const double slope = (kD8Dx[k] != 0 && kD8Dy[k] != 0) ? drop / std::sqrt(2.0) : drop;
-        if (best < 0 || slope > steepest) {
-          steepest = slope;
-          best = static_cast<std::int32_t>(nc);
-        }
-      }
-      d.receiver[c] = best;  // never −1: the cell the flood came from is strictly lower
+      // Never −1: the cell the flood came from is strictly lower.
+      d.receiver[c] = steepest_descent(d, i, j);
     }
   }
 
@@ -149,6 +136,29 @@ Result<Drainage> route_drainage(const ElevationGrid& grid) {
     }
   }
   return d;
+}
+
+std::int32_t steepest_descent(const Drainage& d, int i, int j) {
+  const int w = d.width, h = d.height;
+  const auto index = [w](int x, int y) {
+    return static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
+  };
+  const double here = d.filled[index(i, j)];
+  double steepest = 0.0;
+  std::int32_t best = -1;
+  for (int k = 0; k < 8; ++k) {
+    const int ni = i + kD8Dx[k], nj = j + kD8Dy[k];
+    if (ni < 0 || nj < 0 || ni >= w || nj >= h) continue;
+    const std::size_t nc = index(ni, nj);
+    const double drop = here - d.filled[nc];
+    if (!(drop > 0.0)) continue;
+    const double slope = (kD8Dx[k] != 0 && kD8Dy[k] != 0) ? drop / std::sqrt(2.0) : drop;
+    if (best < 0 || slope > steepest) {
+      steepest = slope;
+      best = static_cast<std::int32_t>(nc);
+    }
+  }
+  return best;
 }
 
 std::vector<int> strahler_orders(std::span<const std::int32_t> receiver,

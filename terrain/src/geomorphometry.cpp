@@ -84,7 +84,7 @@ std::optional<double> fit_slope(const ElevationGrid& grid, const Drainage& d, st
 /// The slope–area profile (Geomorphometry::slope_area) over every land cell fit_slope counts.
 std::vector<SlopeAreaBin> slope_area_profile(const ElevationGrid& grid, const Drainage& d,
                                              const std::vector<std::uint8_t>& channel,
-                                             const std::vector<std::uint8_t>& window) {
+                                             std::span<const std::uint8_t> window) {
   // Bin k holds areas in [10^(k/4), 10^((k+1)/4)): its cells' slopes and channel cells.
   std::map<int, std::pair<std::vector<double>, std::int64_t>> by_bin;
   for (std::size_t c = 0; c < d.cells(); ++c) {
@@ -248,35 +248,23 @@ Status validate(const AnalysisOptions& options) {
 std::vector<std::uint8_t> edge_fed(const Drainage& d) {
   const int w = d.width, h = d.height;
   std::vector<std::uint8_t> fed(d.cells(), 0);
-  const auto index = [w](int i, int j) {
-    return static_cast<std::size_t>(j) * static_cast<std::size_t>(w) + static_cast<std::size_t>(i);
+  const auto on_edge = [w, h](std::size_t c) {
+    const auto i = static_cast<int>(c % static_cast<std::size_t>(w));
+    const auto j = static_cast<int>(c / static_cast<std::size_t>(w));
+    return i == 0 || j == 0 || i == w - 1 || j == h - 1;
   };
+  // Where water from beyond enters: each edge land cell's steepest descent in the grid, where
+  // that is land inside. Water passed along the edge enters where the last edge cell passes it
+  // in, and that cell is an edge cell of its own here; water passed to the sea leaves.
   for (int j = 0; j < h; ++j) {
     for (int i = 0; i < w; ++i) {
-      const bool edge = i == 0 || j == 0 || i == w - 1 || j == h - 1;
-      const std::size_t b = index(i, j);
-      if (!edge || d.land[b] == 0) continue;
-      // The steepest descent among the edge cell's neighbours in the grid, as route_drainage
-      // takes it (ties to the first in kD8 order, the lower linear index).
-      double steepest = 0.0;
-      int best = -1;
-      for (int k = 0; k < 8; ++k) {
-        const int ni = i + kD8Dx[k], nj = j + kD8Dy[k];
-        if (ni < 0 || nj < 0 || ni >= w || nj >= h) continue;
-        const double drop = d.filled[b] - d.filled[index(ni, nj)];
-        if (!(drop > 0.0)) continue;
-        const double slope = (kD8Dx[k] != 0 && kD8Dy[k] != 0) ? drop / std::sqrt(2.0) : drop;
-        if (best < 0 || slope > steepest) {
-          steepest = slope;
-          best = k;
-        }
-      }
-      if (best < 0) continue;
-      const int ni = i + kD8Dx[best], nj = j + kD8Dy[best];
-      const bool inside = ni > 0 && nj > 0 && ni < w - 1 && nj < h - 1;
-      // Water passed along the edge reaches the grid where the last edge cell passes it in, and
-      // that cell is an edge cell of its own here; water passed to the sea leaves.
-      if (inside && d.land[index(ni, nj)] != 0) fed[index(ni, nj)] = 1;
+      const std::size_t b =
+          static_cast<std::size_t>(j) * static_cast<std::size_t>(w) + static_cast<std::size_t>(i);
+      if (!on_edge(b) || d.land[b] == 0) continue;
+      const std::int32_t to = steepest_descent(d, i, j);
+      if (to < 0) continue;
+      const auto entry = static_cast<std::size_t>(to);
+      if (!on_edge(entry) && d.land[entry] != 0) fed[entry] = 1;
     }
   }
   // Downstream, upstream first (the reverse of the flood's order), down to the edge: edge cells
@@ -285,9 +273,8 @@ std::vector<std::uint8_t> edge_fed(const Drainage& d) {
     const auto c = static_cast<std::size_t>(d.order[k]);
     const std::int32_t r = d.receiver[c];
     if (fed[c] == 0 || r < 0) continue;
-    const int ri = r % w, rj = r / w;
-    const bool edge = ri == 0 || rj == 0 || ri == w - 1 || rj == h - 1;
-    if (!edge && d.land[static_cast<std::size_t>(r)] != 0) fed[static_cast<std::size_t>(r)] = 1;
+    const auto down = static_cast<std::size_t>(r);
+    if (!on_edge(down) && d.land[down] != 0) fed[down] = 1;
   }
   return fed;
 }

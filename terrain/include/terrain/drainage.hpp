@@ -81,6 +81,12 @@ std::vector<int> strahler_orders(std::span<const std::int32_t> receiver,
                                  std::span<const std::int32_t> order,
                                  std::span<const std::uint8_t> channel);
 
+/// The neighbour of cell (i, j) in the grid down which D8 sends water: the steepest strict
+/// descent on `filled` (drop over one cell straight, √2 diagonally; ties to the first in kD8
+/// order, the lower linear index), or −1 where none is lower. Every land cell inside the grid
+/// has this as its receiver; an edge cell, an outlet, would pass water from beyond the grid to it.
+std::int32_t steepest_descent(const Drainage& drainage, int i, int j);
+
 /// Distance from cell `from` to its D8 neighbour `to`: one cell size straight, √2 diagonally.
 double d8_distance(const Drainage& drainage, std::int32_t from, std::int32_t to);
 
