@@ -38,6 +38,17 @@ const std::shared_ptr<const Planet>& displacement_planet() {
   return planet;
 }
 
+// The same definition with its valleys winding through a domain warp of 0.1 (planet.md
+// "Winding valleys"; off by default): the warp's noise per sample, and floors drawn by bins.
+const std::shared_ptr<const Planet>& warped_planet() {
+  static const std::shared_ptr<const Planet> planet = [] {
+    PlanetDefinition d = default_definition();
+    d.warp = 0.1;
+    return Planet::create(d);
+  }();
+  return planet;
+}
+
 void BM_PlanetBaseMesh(benchmark::State& state) {
   const PlanetDefinition d = default_definition();
   int faces = 0;
@@ -179,6 +190,11 @@ BENCHMARK(BM_PlanetTileDisplacementRefined)
     ->Arg(10)
     ->Arg(18)
     ->Unit(benchmark::kMillisecond);
+
+void BM_PlanetTileWarpedRefined(benchmark::State& state) {
+  run_planet_tile_refined(state, warped_planet());
+}
+BENCHMARK(BM_PlanetTileWarpedRefined)->Arg(2)->Arg(10)->Arg(18)->Unit(benchmark::kMillisecond);
 
 // Issue 20 asks that a planet tile be no slower than a scene tile of the same size, so the same
 // product of every example scene runs in the same process: a 256² terrain-RGB tile (generation

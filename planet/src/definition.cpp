@@ -64,6 +64,8 @@ const std::vector<NumberField>& number_fields() {
       {"shelf_depth", &PlanetDefinition::shelf_depth, 1.0, 2000.0, false, true},
       {"river_concavity", &PlanetDefinition::river_concavity, 0.0, 1.0, false, true},
       {"river_slope_area", &PlanetDefinition::river_slope_area, 1.0, 1e14, false, true},
+      {"warp", &PlanetDefinition::warp, 0.0, 0.12, false, true},
+      {"warp_wavelength", &PlanetDefinition::warp_wavelength, 1000.0, 100000.0, false, true},
   };
   return table;
 }

@@ -10,6 +10,7 @@
 #include "drain_floors.hpp"
 #include "gradient_noise.hpp"
 #include "planet/smooth_surface.hpp"
+#include "warp.hpp"
 
 namespace planet {
 
@@ -62,6 +63,28 @@ Planet::Planet(const PlanetDefinition& definition, const BuildOptions& options,
   elevation_range_ = {
       static_cast<float>(std::floor(d.sea_level - d.sea_depth)),
       static_cast<float>(std::ceil(d.sea_level + d.max_mountain_altitude + detail_max))};
+  const std::uint32_t warp_seed = static_cast<std::uint32_t>(mix64(d.seed ^ 0x77617270ULL));
+  for (int level = 0; level <= base_->rules.max_level; ++level) {
+    warp_by_level_.push_back(detail::warp_octaves(
+        d.warp, d.warp_wavelength, base_->rules.edge_length(level), d.radius, warp_seed));
+  }
+}
+
+Planet::~Planet() = default;
+
+const detail::WarpOctaves& Planet::warp_octaves(int level) const {
+  assert(level >= 0 && static_cast<std::size_t>(level) < warp_by_level_.size());
+  return warp_by_level_[static_cast<std::size_t>(level)];
+}
+
+bool Planet::warps(int level) const {
+  assert(level >= 0 && static_cast<std::size_t>(level) < warp_by_level_.size());
+  return warp_by_level_[static_cast<std::size_t>(level)].count > 0;
+}
+
+Vec3d Planet::warp(const Vec3d& direction, int level) const {
+  assert(level >= 0 && static_cast<std::size_t>(level) < warp_by_level_.size());
+  return detail::warped(warp_by_level_[static_cast<std::size_t>(level)], direction);
 }
 
 std::shared_ptr<const Planet> Planet::create(const PlanetDefinition& definition,
@@ -204,7 +227,8 @@ PointSample Sampler::at(const Vec3d& p, int level, double octaves) {
 
 PointSample Sampler::at(const Vec3d& p, int level, double octaves, const DescentStart& start) {
   trim_when_large();  // before the start is checked: a trim makes it stale
-  return evaluate(descend(p, level, start), p, level, octaves);
+  const Vec3d q = planet_->warp(p, level);
+  return evaluate(descend(q, level, start), q, level, octaves);
 }
 
 double Sampler::land_ground(std::int32_t t, const std::array<const Vertex*, 3>& corner,
@@ -226,7 +250,8 @@ double Sampler::land_ground(std::int32_t t, const std::array<const Vertex*, 3>& 
 
 PointSample Sampler::at_from_root(const Vec3d& p, int level, double octaves) {
   trim_when_large();
-  return evaluate(hierarchy_.locate(p, level), p, level, octaves);
+  const Vec3d q = planet_->warp(p, level);
+  return evaluate(hierarchy_.locate(q, level), q, level, octaves);
 }
 
 DescentStart Sampler::start_at(std::int32_t t) const {
@@ -318,9 +343,15 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
   return finish(sample, std::nullopt);
 }
 
-void Sampler::at(std::span<const Vec3d> directions, int level, double octaves,
-                 const DescentStart& start, std::span<PointSample> out) {
-  assert(out.size() >= directions.size());
+void Sampler::at(std::span<const Vec3d> given, int level, double octaves, const DescentStart& start,
+                 std::span<PointSample> out) {
+  assert(out.size() >= given.size());
+  // Every direction warped at once (the same bits as one by one).
+  warped_.resize(given.size());
+  warp_scratch_.resize(3 * given.size());
+  detail::warped(planet_->warp_octaves(level), given.data(), given.size(), warped_.data(),
+                 warp_scratch_.data());
+  const std::span<const Vec3d> directions = warped_;
   if (!planet_->has_detail_octaves(octaves)) {  // nothing to batch: the noise sums no octave
     for (std::size_t i = 0; i < directions.size(); ++i) {
       trim_when_large();

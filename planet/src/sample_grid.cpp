@@ -12,6 +12,7 @@
 #include "drain_floors.hpp"
 #include "planet/planet.hpp"
 #include "terrain/simd.hpp"
+#include "warp.hpp"
 
 namespace planet {
 namespace {
@@ -143,9 +144,9 @@ std::pair<int, int> columns_between(std::span<const double> longitude, double lo
   return {static_cast<int>(first - longitude.begin()), static_cast<int>(end - longitude.begin())};
 }
 
-// Samples a row apart, packed for drawing floors (Sampler::draw_floors): one array per
-// coordinate, the ground before (NaN off land) and the lowest floor so far, each padded by
-// kLanes values beyond the last sample.
+// Samples packed for drawing floors (Sampler::draw_floors): one array per coordinate, the ground
+// before (NaN off land) and the lowest floor so far, each padded by kLanes values beyond the
+// last sample; in grid order, `cols` to a row, or in the order of their bins.
 struct FloorSamples {
   const double* x;
   const double* y;
@@ -155,33 +156,91 @@ struct FloorSamples {
   std::size_t cols;
 };
 
-// The floor of one drain edge drawn onto the samples of rows [r_first, r_end) and columns
-// [c_first, c_end), kLanes samples at a time: a sample beyond those columns (the next ones of the
-// row, or of the next row, or the padding) is out of reach of the edge or within it, and either
-// way lowering it again changes nothing, so no remainder loop is needed. A NaN ground (off land)
-// stays NaN: lowered() compares it false and returns it. Cloned for AVX-512 and AVX2 (the same
+// The floor of one drain edge drawn onto the packed samples [first, end), kLanes at a time: a
+// sample beyond them (the next ones of the row or bin, or the padding) is out of reach of the
+// edge or within it, and either way lowering it again changes nothing (lowered() reads the
+// ground before every floor), so no remainder loop is needed. A NaN ground (off land) stays
+// NaN: lowered() compares it false and returns it. Cloned for AVX-512 and AVX2 (the same
 // numbers: no contraction, and a select returns one of its operands).
 TERRAIN_SIMD_CLONES void draw_floor(const floors::DrainSegment& segment,
                                     const floors::FloorShape& shape, const FloorSamples& samples,
-                                    int r_first, int r_end, int c_first, int c_end) {
-  for (int r = r_first; r < r_end; ++r) {
-    const std::size_t row = static_cast<std::size_t>(r) * samples.cols;
-    const std::size_t end = row + static_cast<std::size_t>(c_end);
-    for (std::size_t i = row + static_cast<std::size_t>(c_first); i < end; i += kLanes) {
-      std::array<double, kLanes> ground_after{};
-      for (std::size_t j = 0; j < kLanes; ++j) {
-        ground_after[j] =
-            floors::lowered(samples.ground[i + j], segment,
-                            {samples.x[i + j], samples.y[i + j], samples.z[i + j]}, shape);
-      }
-      for (std::size_t j = 0; j < kLanes; ++j) {
-        samples.lowest[i + j] = std::min(samples.lowest[i + j], ground_after[j]);
-      }
+                                    std::size_t first, std::size_t end) {
+  for (std::size_t i = first; i < end; i += kLanes) {
+    std::array<double, kLanes> ground_after{};
+    for (std::size_t j = 0; j < kLanes; ++j) {
+      ground_after[j] =
+          floors::lowered(samples.ground[i + j], segment,
+                          {samples.x[i + j], samples.y[i + j], samples.z[i + j]}, shape);
+    }
+    for (std::size_t j = 0; j < kLanes; ++j) {
+      samples.lowest[i + j] = std::min(samples.lowest[i + j], ground_after[j]);
     }
   }
 }
 
+// Unit vectors east and north of direction c, the axes of the plane a warped band's samples are
+// binned in (any pair orthogonal to c would do: the bins only need a projection that moves no
+// two points farther apart than they are).
+std::pair<Vec3d, Vec3d> tangent_axes(const Vec3d& c) {
+  const double across = std::sqrt(c[0] * c[0] + c[1] * c[1]);
+  const Vec3d east =
+      across > 1e-9 ? Vec3d{-c[1] / across, c[0] / across, 0.0} : Vec3d{0.0, 1.0, 0.0};
+  return {east, cross(c, east)};
+}
+
 }  // namespace
+
+// The floored edges (drains and valleys) of `level` that a sample's walk could reach: the
+// triangles from the samples' leaves across every edge `near` the samples (a walk from a sample
+// crosses only edges within reach of it, which are near the samples, so these are every triangle
+// any sample's walk reaches), each floored edge of them once, from the lower-numbered of its two
+// triangles, handed to `draw` where it is `near` the samples too. Both ways of drawing floors
+// (draw_floors, draw_floors_by_bins) find their edges so.
+template <typename Near, typename Draw>
+void Sampler::for_each_floored_edge(const Near& near, const Draw& draw) {
+  if (++mark_ == 0) {
+    std::fill(marks_.begin(), marks_.end(), 0U);
+    mark_ = 1;
+  }
+  const auto marked = [&](std::int32_t t) {
+    const auto u = static_cast<std::size_t>(t);
+    return u < marks_.size() && marks_[u] == mark_;
+  };
+  const auto mark = [&](std::int32_t t) {
+    const auto u = static_cast<std::size_t>(t);
+    if (u >= marks_.size()) marks_.resize(std::max(hierarchy_.tris.size(), u + 1), 0U);
+    marks_[u] = mark_;
+    reached_.push_back(t);
+  };
+  reached_.clear();
+  for (const std::int32_t leaf : leaves_) {
+    if (!marked(leaf)) mark(leaf);
+  }
+  for (std::size_t next = 0; next < reached_.size(); ++next) {
+    const std::int32_t u = reached_[next];
+    hierarchy_.ensure_partner(u);
+    const Tri tri = hierarchy_.tris[static_cast<std::size_t>(u)];
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::int32_t across = tri.nb[k];
+      if (across < 0 || marked(across)) continue;
+      if (!near(hierarchy_.vertices[tri.v[k]].p, hierarchy_.vertices[tri.v[(k + 1) % 3]].p)) {
+        continue;
+      }
+      mark(across);
+    }
+  }
+  for (const std::int32_t u : reached_) {
+    const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(u)];
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (!floors::floored_edge(hierarchy_, tri, k)) continue;
+      const std::int32_t across = tri.nb[k];
+      if (across >= 0 && marked(across) && across < u) continue;
+      const Vertex& a = hierarchy_.vertices[tri.v[k]];
+      const Vertex& b = hierarchy_.vertices[tri.v[(k + 1) % 3]];
+      if (near(a.p, b.p)) draw(a, b);
+    }
+  }
+}
 
 void Sampler::grid(const SampleGrid& grid, int level, double octaves, const GridSink& out) {
   assert(grid.latitude.size() == static_cast<std::size_t>(grid.rows));
@@ -231,11 +290,22 @@ void Sampler::grid_rows(const SampleGrid& grid, std::size_t base, int level, dou
     leaves_.reserve(count);
     pending_directions_.reserve(count);
   }
+  // The band's directions, each where the planet's warp moves it (all at once: the warp's noise
+  // goes several directions at a time where the CPU has vectors for it).
   const Geodesy& geodesy = planet_->geodesy();
+  const auto cols = static_cast<std::size_t>(grid.cols);
+  warped_.resize(static_cast<std::size_t>(grid.rows) * cols);
+  for (std::size_t r = 0; r < static_cast<std::size_t>(grid.rows); ++r) {
+    for (std::size_t c = 0; c < cols; ++c) {
+      warped_[r * cols + c] =
+          geodesy.direction(grid.sin_lat[r], grid.cos_lat[r], grid.sin_lon[c], grid.cos_lon[c]);
+    }
+  }
+  warp_scratch_.resize(3 * warped_.size());
+  detail::warped(planet_->warp_octaves(level), warped_.data(), warped_.size(), warped_.data(),
+                 warp_scratch_.data());
   const auto direction = [&](int r, int c) {
-    const auto ur = static_cast<std::size_t>(r), uc = static_cast<std::size_t>(c);
-    return geodesy.direction(grid.sin_lat[ur], grid.cos_lat[ur], grid.sin_lon[uc],
-                             grid.cos_lon[uc]);
+    return warped_[static_cast<std::size_t>(r) * cols + static_cast<std::size_t>(c)];
   };
   // Samples go in blocks that share the start of their descent: the deepest triangle holding the
   // block's outline (with a margin), found once per block. Each sample still checks that it lies
@@ -280,7 +350,11 @@ void Sampler::grid_rows(const SampleGrid& grid, std::size_t base, int level, dou
     }
   }
   if (floors) {
-    draw_floors(grid, base, level);
+    if (planet_->warps(level)) {
+      draw_floors_by_bins(level);
+    } else {
+      draw_floors(grid, base, level);
+    }
     finish_pending(octaves, out);
   }
 }
@@ -347,42 +421,6 @@ void Sampler::draw_floors(const SampleGrid& grid, std::size_t base, int level) {
   const bool south = row_z.front() <= -row_axis.front();
   const GridBounds bounds = grid_bounds(grid, row_z, row_axis, north || south, reach);
 
-  // The triangles of the level within reach of a sample: from the samples' leaves across every
-  // edge near the grid. A walk from a sample crosses only edges within reach of it, which are
-  // near the grid, so this reaches every triangle any sample's walk does.
-  if (++mark_ == 0) {
-    std::fill(marks_.begin(), marks_.end(), 0U);
-    mark_ = 1;
-  }
-  const auto marked = [&](std::int32_t t) {
-    const auto u = static_cast<std::size_t>(t);
-    return u < marks_.size() && marks_[u] == mark_;
-  };
-  const auto mark = [&](std::int32_t t) {
-    const auto u = static_cast<std::size_t>(t);
-    if (u >= marks_.size()) marks_.resize(std::max(hierarchy_.tris.size(), u + 1), 0U);
-    marks_[u] = mark_;
-    reached_.push_back(t);
-  };
-  reached_.clear();
-  for (const std::int32_t leaf : leaves_) {
-    if (!marked(leaf)) mark(leaf);
-  }
-  for (std::size_t next = 0; next < reached_.size(); ++next) {
-    const std::int32_t u = reached_[next];
-    hierarchy_.ensure_partner(u);
-    const Tri tri = hierarchy_.tris[static_cast<std::size_t>(u)];
-    for (std::size_t k = 0; k < 3; ++k) {
-      const std::int32_t across = tri.nb[k];
-      if (across < 0 || marked(across)) continue;
-      if (!bounds.near(hierarchy_.vertices[tri.v[k]].p,
-                       hierarchy_.vertices[tri.v[(k + 1) % 3]].p)) {
-        continue;
-      }
-      mark(across);
-    }
-  }
-
   // Each floored edge (drain or valley) once, from the lower-numbered of its two triangles, onto
   // the samples of the rows and columns within reach of it.
   const FloorSamples samples{direction_[0].data(), direction_[1].data(),
@@ -390,7 +428,11 @@ void Sampler::draw_floors(const SampleGrid& grid, std::size_t base, int level) {
                              floor_.data(),        static_cast<std::size_t>(grid.cols)};
   const auto draw = [&](const floors::DrainSegment& segment, int r_first, int r_end, int c_first,
                         int c_end) {
-    draw_floor(segment, shape, samples, r_first, r_end, c_first, c_end);
+    for (int r = r_first; r < r_end; ++r) {
+      const std::size_t row = static_cast<std::size_t>(r) * samples.cols;
+      draw_floor(segment, shape, samples, row + static_cast<std::size_t>(c_first),
+                 row + static_cast<std::size_t>(c_end));
+    }
   };
   const Geodesy& geodesy = planet_->geodesy();
   const double flattening = planet_->definition().flattening;
@@ -400,80 +442,167 @@ void Sampler::draw_floors(const SampleGrid& grid, std::size_t base, int level) {
   const double slab = reach + 1e-15;
   // The last edge's rows and columns, where the next one's are looked for first.
   int r_first = 0, r_end = 0, c_first = 0, c_end = 0;
-  for (const std::int32_t u : reached_) {
-    const Tri& tri = hierarchy_.tris[static_cast<std::size_t>(u)];
-    for (std::size_t k = 0; k < 3; ++k) {
-      if (!floors::floored_edge(hierarchy_, tri, k)) continue;
-      const std::int32_t across = tri.nb[k];
-      if (across >= 0 && marked(across) && across < u) continue;
-      const Vertex& a = hierarchy_.vertices[tri.v[k]];
-      const Vertex& b = hierarchy_.vertices[tri.v[(k + 1) % 3]];
-      if (!bounds.near(a.p, b.p)) continue;
-      const floors::DrainSegment segment = floors::drain_segment(a, b, shape);
-      const double z_lo = std::min(a.p[2], b.p[2]) - slab, z_hi = std::max(a.p[2], b.p[2]) + slab;
-      r_first = first_where_not_from(
-          r_first, 0, grid.rows, [&](int r) { return row_z[static_cast<std::size_t>(r)] > z_hi; });
-      r_end = first_where_not_from(r_end, r_first, grid.rows, [&](int r) {
-        return row_z[static_cast<std::size_t>(r)] >= z_lo;
+  for_each_floored_edge(
+      [&](const Vec3d& a, const Vec3d& b) { return bounds.near(a, b); },
+      [&](const Vertex& a, const Vertex& b) {
+        const floors::DrainSegment segment = floors::drain_segment(a, b, shape);
+        const double z_lo = std::min(a.p[2], b.p[2]) - slab, z_hi = std::max(a.p[2], b.p[2]) + slab;
+        r_first = first_where_not_from(r_first, 0, grid.rows, [&](int r) {
+          return row_z[static_cast<std::size_t>(r)] > z_hi;
+        });
+        r_end = first_where_not_from(r_end, r_first, grid.rows, [&](int r) {
+          return row_z[static_cast<std::size_t>(r)] >= z_lo;
+        });
+        if (north || south) {
+          const double axis_lo = chord_axis_distance(a.p, b.p) - slab;
+          const double axis_hi = std::max(axis_distance(a.p), axis_distance(b.p)) + slab;
+          const auto before = [&](int r) {
+            const double axis = row_axis[static_cast<std::size_t>(r)];
+            return north ? axis < axis_lo : axis > axis_hi;
+          };
+          const auto within = [&](int r) {
+            const double axis = row_axis[static_cast<std::size_t>(r)];
+            return north ? axis <= axis_hi : axis >= axis_lo;
+          };
+          r_first = std::max(r_first, first_where_not(r_first, r_end, before));
+          r_end = std::min(r_end, first_where_not(r_first, r_end, within));
+        }
+        if (r_first >= r_end) return;
+        if (bounds.meridians) {
+          // The plane of column c: (−sin λ_c, cos λ_c, 0)·q falls as c goes east while the grid
+          // spans less than a sixth of a turn.
+          const auto across_meridian = [&](std::size_t c, const Vec3d& q) {
+            return -q[0] * grid.sin_lon[c] + q[1] * grid.cos_lon[c];
+          };
+          c_first = first_where_not_from(c_first, 0, grid.cols, [&](int c) {
+            const auto column = static_cast<std::size_t>(c);
+            return std::min(across_meridian(column, a.p), across_meridian(column, b.p)) > slab;
+          });
+          c_end = first_where_not_from(c_end, c_first, grid.cols, [&](int c) {
+            const auto column = static_cast<std::size_t>(c);
+            return std::max(across_meridian(column, a.p), across_meridian(column, b.p)) >= -slab;
+          });
+          draw(segment, r_first, r_end, c_first, c_end);
+          return;
+        }
+        // A grid a sixth of a turn wide or more (zooms 0 and 1): columns by longitude. Degrees
+        // within reach: the reach as an angle, widened for the ellipsoid's geodetic latitude (at
+        // most 1 + 2f of it) and for the arc's bulge beyond the chord.
+        const double margin =
+            ((1.0 + 2.0 * flattening) * reach * 1.001 + 0.125 * dot(segment.ab, segment.ab)) /
+                kDegree +
+            1e-9;
+        double lat_a = 0.0, lon_a = 0.0, lat_b = 0.0, lon_b = 0.0;
+        geodesy.direction_to_geographic(a.p, lat_a, lon_a);
+        geodesy.direction_to_geographic(b.p, lat_b, lon_b);
+        if (lon_b - lon_a > 180.0) lon_b -= 360.0;
+        if (lon_a - lon_b > 180.0) lon_b += 360.0;
+        const double polar = std::max(std::abs(lat_a), std::abs(lat_b)) + margin;
+        const double widen = polar < 89.0 ? margin / std::cos(polar * kDegree) : 360.0;
+        for (const double turn : {-360.0, 0.0, 360.0}) {
+          const double lon_lo = std::min(lon_a, lon_b) + turn - widen;
+          const double lon_hi = std::max(lon_a, lon_b) + turn + widen;
+          if (lon_hi < west || lon_lo > east) continue;
+          const auto [first, end] = columns_between(grid.longitude, lon_lo, lon_hi);
+          draw(segment, r_first, r_end, first, end);
+        }
       });
-      if (north || south) {
-        const double axis_lo = chord_axis_distance(a.p, b.p) - slab;
-        const double axis_hi = std::max(axis_distance(a.p), axis_distance(b.p)) + slab;
-        const auto before = [&](int r) {
-          const double axis = row_axis[static_cast<std::size_t>(r)];
-          return north ? axis < axis_lo : axis > axis_hi;
-        };
-        const auto within = [&](int r) {
-          const double axis = row_axis[static_cast<std::size_t>(r)];
-          return north ? axis <= axis_hi : axis >= axis_lo;
-        };
-        r_first = std::max(r_first, first_where_not(r_first, r_end, before));
-        r_end = std::min(r_end, first_where_not(r_first, r_end, within));
-      }
-      if (r_first >= r_end) continue;
-      if (bounds.meridians) {
-        // The plane of column c: (−sin λ_c, cos λ_c, 0)·q falls as c goes east while the grid
-        // spans less than a sixth of a turn.
-        const auto across_meridian = [&](std::size_t c, const Vec3d& q) {
-          return -q[0] * grid.sin_lon[c] + q[1] * grid.cos_lon[c];
-        };
-        c_first = first_where_not_from(c_first, 0, grid.cols, [&](int c) {
-          const auto column = static_cast<std::size_t>(c);
-          return std::min(across_meridian(column, a.p), across_meridian(column, b.p)) > slab;
-        });
-        c_end = first_where_not_from(c_end, c_first, grid.cols, [&](int c) {
-          const auto column = static_cast<std::size_t>(c);
-          return std::max(across_meridian(column, a.p), across_meridian(column, b.p)) >= -slab;
-        });
-        draw(segment, r_first, r_end, c_first, c_end);
-        continue;
-      }
-      // A grid a sixth of a turn wide or more (zooms 0 and 1): columns by longitude. Degrees within
-      // reach: the reach as an angle, widened for the ellipsoid's geodetic latitude (at most
-      // 1 + 2f of it) and for the arc's bulge beyond the chord.
-      const double margin =
-          ((1.0 + 2.0 * flattening) * reach * 1.001 + 0.125 * dot(segment.ab, segment.ab)) /
-              kDegree +
-          1e-9;
-      double lat_a = 0.0, lon_a = 0.0, lat_b = 0.0, lon_b = 0.0;
-      geodesy.direction_to_geographic(a.p, lat_a, lon_a);
-      geodesy.direction_to_geographic(b.p, lat_b, lon_b);
-      if (lon_b - lon_a > 180.0) lon_b -= 360.0;
-      if (lon_a - lon_b > 180.0) lon_b += 360.0;
-      const double polar = std::max(std::abs(lat_a), std::abs(lat_b)) + margin;
-      const double widen = polar < 89.0 ? margin / std::cos(polar * kDegree) : 360.0;
-      for (const double turn : {-360.0, 0.0, 360.0}) {
-        const double lon_lo = std::min(lon_a, lon_b) + turn - widen;
-        const double lon_hi = std::max(lon_a, lon_b) + turn + widen;
-        if (lon_hi < west || lon_lo > east) continue;
-        const auto [first, end] = columns_between(grid.longitude, lon_lo, lon_hi);
-        draw(segment, r_first, r_end, first, end);
-      }
-    }
-  }
   for (std::size_t k = 0; k < count; ++k) {
     const double lowest = floor_[order_[k] - base];
     if (!std::isnan(lowest)) pending_[k].out.ground = lowest;
+  }
+}
+
+void Sampler::draw_floors_by_bins(int level) {
+  // Only land samples take floors, so only they are binned.
+  land_.clear();
+  for (std::size_t k = 0; k < pending_.size(); ++k) {
+    if (pending_[k].face == FaceType::land) land_.push_back(k);
+  }
+  if (land_.empty()) return;
+  const floors::FloorShape shape = floors::floor_shape(planet_->rules(), level);
+  // A little beyond the reach, so that rounding never leaves out an edge a walk would take.
+  const double reach = shape.reach_chord() * (1.0 + 1e-6) + 1e-14;
+
+  // The samples' directions are warped (Planet::warp), so a band's rows are no longer lines of
+  // latitude: the samples are binned instead, by their coordinates in the plane tangent to the
+  // band's middle sample. Projecting onto it moves no two points farther apart than they are,
+  // so a sample within reach of a point of a chord lies within reach of it in both coordinates,
+  // and an edge's bins are those its end points' box, widened by the reach, overlaps.
+  const auto [east, north] = tangent_axes(pending_directions_[land_[land_.size() / 2]]);
+  double u_lo = std::numeric_limits<double>::infinity(), u_hi = -u_lo, v_lo = u_lo, v_hi = -u_lo;
+  for (const std::size_t k : land_) {
+    const double u = dot(pending_directions_[k], east), v = dot(pending_directions_[k], north);
+    u_lo = std::min(u_lo, u);
+    u_hi = std::max(u_hi, u);
+    v_lo = std::min(v_lo, v);
+    v_hi = std::max(v_hi, v);
+  }
+  // Bins about a sample wide (reach is a sample and a half), fewer where a band is wide (zooms
+  // 0 and 1, where the plane folds the far side of the sphere onto the near one).
+  double bin = shape.reach_chord() / 1.5;
+  const double land = static_cast<double>(land_.size());
+  while ((u_hi - u_lo) / bin * ((v_hi - v_lo) / bin) > 4.0 * land + 4096.0) bin *= 2.0;
+  const auto cells = [&](double extent) {
+    return static_cast<std::size_t>(std::max(0.0, std::floor(extent / bin))) + 1;
+  };
+  const std::size_t nu = cells(u_hi - u_lo), nv = cells(v_hi - v_lo);
+  const auto cell = [&](double value, double lo, std::size_t n) {
+    const double index = std::floor((value - lo) / bin);
+    return static_cast<std::size_t>(std::clamp(index, 0.0, static_cast<double>(n - 1)));
+  };
+  // A counting sort of the land samples by bin, row of bins by row of bins.
+  bin_start_.assign(nu * nv + 1, 0);
+  bin_of_.resize(land_.size());
+  for (std::size_t i = 0; i < land_.size(); ++i) {
+    const Vec3d& q = pending_directions_[land_[i]];
+    bin_of_[i] = cell(dot(q, north), v_lo, nv) * nu + cell(dot(q, east), u_lo, nu);
+    ++bin_start_[bin_of_[i] + 1];
+  }
+  for (std::size_t b = 0; b < nu * nv; ++b) bin_start_[b + 1] += bin_start_[b];
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  ground_.assign(land_.size() + kLanes, nan);
+  for (std::vector<double>& axis : direction_) axis.assign(land_.size() + kLanes, 0.0);
+  slot_.resize(land_.size());
+  {
+    std::vector<std::size_t>& next = bin_next_;
+    next.assign(bin_start_.begin(), bin_start_.end() - 1);
+    for (std::size_t i = 0; i < land_.size(); ++i) {
+      const std::size_t slot = next[bin_of_[i]]++;
+      slot_[i] = slot;
+      const Vec3d& q = pending_directions_[land_[i]];
+      for (std::size_t j = 0; j < 3; ++j) direction_[j][slot] = q[j];
+      ground_[slot] = pending_[land_[i]].out.ground;
+    }
+  }
+  floor_ = ground_;
+  // Whether the chord from a to b comes within reach of the land samples' box.
+  const auto near = [&](const Vec3d& a, const Vec3d& b) {
+    const double ua = dot(a, east), ub = dot(b, east), va = dot(a, north), vb = dot(b, north);
+    return std::max(ua, ub) >= u_lo - reach && std::min(ua, ub) <= u_hi + reach &&
+           std::max(va, vb) >= v_lo - reach && std::min(va, vb) <= v_hi + reach;
+  };
+
+  // Each floored edge (drain or valley) once, from the lower-numbered of its two triangles, onto
+  // the samples of the bins within reach of it: one run of the packed arrays per row of bins.
+  const FloorSamples samples{direction_[0].data(), direction_[1].data(), direction_[2].data(),
+                             ground_.data(),       floor_.data(),        0};
+  for_each_floored_edge(near, [&](const Vertex& a, const Vertex& b) {
+    const double ua = dot(a.p, east), ub = dot(b.p, east), va = dot(a.p, north),
+                 vb = dot(b.p, north);
+    const std::size_t u_first = cell(std::min(ua, ub) - reach, u_lo, nu);
+    const std::size_t u_last = cell(std::max(ua, ub) + reach, u_lo, nu);
+    const std::size_t v_first = cell(std::min(va, vb) - reach, v_lo, nv);
+    const std::size_t v_last = cell(std::max(va, vb) + reach, v_lo, nv);
+    const floors::DrainSegment segment = floors::drain_segment(a, b, shape);
+    for (std::size_t row = v_first; row <= v_last; ++row) {
+      draw_floor(segment, shape, samples, bin_start_[row * nu + u_first],
+                 bin_start_[row * nu + u_last + 1]);
+    }
+  });
+  for (std::size_t i = 0; i < land_.size(); ++i) {
+    const double lowest = floor_[slot_[i]];
+    if (!std::isnan(lowest)) pending_[land_[i]].out.ground = lowest;
   }
 }
 

@@ -26,12 +26,9 @@ TEST(ProductGoldens, TheDefaultPlanetMakesTheBytesOfItsGeneration) {
   // (near 6.5° N 105° W since generation 17; 9 % of the tile's samples), and the Web Mercator
   // tiles MapLibre asks for.
   const std::pair<TileScheme, TileAddress> places[] = {
-      {TileScheme::geographic, {3, 9, 5}},
-      {TileScheme::geographic, {6, 70, 40}},
-      {TileScheme::geographic, {9, 600, 300}},
-      {TileScheme::geographic, {16, 1820, 34588}},
-      {TileScheme::geographic, {6, 26, 34}},
-      {TileScheme::webmercator, {5, 17, 11}},
+      {TileScheme::geographic, {3, 9, 5}},     {TileScheme::geographic, {6, 70, 40}},
+      {TileScheme::geographic, {9, 600, 300}}, {TileScheme::geographic, {16, 1820, 34588}},
+      {TileScheme::geographic, {6, 26, 34}},   {TileScheme::webmercator, {5, 17, 11}},
   };
   terrain::testing::ProductHashes made;
   const terrain::testing::InputHashes inputs{{"default", planet->id()}};

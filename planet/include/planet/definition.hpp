@@ -93,6 +93,14 @@ struct PlanetDefinition {
   /// The climate's share of dry land, 0 to 1: a lake whose climate is drier than 1 − aridity
   /// loses more water than it gains and is kept closed, below its rim, with no outflow.
   double aridity = 0.35;
+  /// Domain warping (Schneider et al. 2006, planet.md "Winding valleys"): every point is
+  /// evaluated where a smooth noise field moves it, by up to about this share of the field's
+  /// longest wavelength, so that valleys and ridges along the mesh's straight edges wind; 0 for
+  /// none (the default: it costs Flint's law some squares, planet.md says which).
+  double warp = 0.0;
+  /// Metres: the warp's longest wavelength; each next octave is a quarter as long and bends
+  /// half as much, down to four edges of the level sampled.
+  double warp_wavelength = 40000.0;
   ReliefModel relief_model = ReliefModel::drainage;
   int base_faces = 5000;      ///< base shape accuracy; rounded to 8·2^k faces
   double finest_edge = 10.0;  ///< refinement stops at edges this short; detail noise goes on
@@ -133,9 +141,9 @@ struct FieldRange {
 std::vector<FieldRange> numeric_field_ranges();
 
 /// Every field explicit, except continent_map, written only when set, and material,
-/// min_drain_slope, the relief fields (relief_model included), lakes and aridity, written only
-/// when they differ from the defaults (so planets defined before
-/// those fields existed keep their ids): parse_planet(canonical_json(d)) gives d back.
+/// min_drain_slope, the relief fields (relief_model included), lakes, aridity and the warp, written
+/// only when they differ from the defaults (so planets defined before those fields existed keep
+/// their ids): parse_planet(canonical_json(d)) gives d back.
 nlohmann::json canonical_json(const PlanetDefinition& definition);
 /// Every field at its default, those canonical_json leaves out included (continent_map as "",
 /// material as its JSON): what docs/planet.md's table of fields must list

@@ -28,7 +28,8 @@ namespace planet {
 
 namespace detail {
 struct DetailOctaves;
-}
+struct WarpOctaves;
+}  // namespace detail
 
 /// What lies at a point (the `type` of sample?lat=&lon=). `lake`: under a lake's water.
 enum class SurfaceType { sea, coast, land, river, lake };
@@ -95,6 +96,16 @@ class Planet {
   /// The same at many directions, into out[0, directions.size()): the same bits, several at
   /// once where the CPU has vectors for it.
   void detail(std::span<const Vec3d> directions, double octaves, std::span<double> out) const;
+  /// The direction every sample at `direction` and `level` is evaluated at: moved by the
+  /// definition's domain warp (planet.md "Winding valleys"), whose octaves reach down to four
+  /// edges of the level; `direction` itself without a warp.
+  Vec3d warp(const Vec3d& direction, int level) const;
+  /// Whether warp() moves any direction at `level`.
+  bool warps(int level) const;
+  /// The warp's octaves at `level` (warp.hpp), for moving many directions at once.
+  const detail::WarpOctaves& warp_octaves(int level) const;
+
+  ~Planet();
 
  private:
   Planet(const PlanetDefinition& definition, const BuildOptions& options, const ContinentMap* map);
@@ -109,6 +120,7 @@ class Planet {
   std::uint32_t detail_seed_ = 0;
   int first_detail_octave_ = 0;  ///< octaves before it are left to the mesh
   double first_detail_amplitude_ = 0.0, first_detail_frequency_ = 0.0;  ///< of that octave
+  std::vector<detail::WarpOctaves> warp_by_level_;  ///< the warp's octaves at each level
 };
 
 /// Where a group of nearby samples may start their descent instead of the octahedron: a
@@ -216,6 +228,13 @@ class Sampler {
   /// samples it reaches (pending_[k] for the whole's sample order_[k], the band's
   /// order_[k] − base, in leaves_[k], at pending_directions_[k]).
   void draw_floors(const SampleGrid& grid, std::size_t base, int level);
+  /// draw_floors() where the planet warps `level` (Planet::warps): the band's rows are no longer
+  /// lines of latitude, so its land samples are binned by where the warp put them.
+  void draw_floors_by_bins(int level);
+  /// Both draw_floors()'s way to their edges: every floored edge of the level a sample's walk
+  /// could reach, once, handed to `draw` (sample_grid.cpp).
+  template <typename Near, typename Draw>
+  void for_each_floored_edge(const Near& near, const Draw& draw);
   /// grid()'s pending_ samples with their detail noise, to `out` with their order_ index
   /// (pending_directions_ holds their directions).
   void finish_pending(double octaves, const GridSink& out);
@@ -259,6 +278,11 @@ class Sampler {
   std::vector<double> row_z_;                     ///< draw_floors(): each row's z
   std::vector<double> row_axis_;  ///< draw_floors(): each row's distance from the polar axis
   std::vector<double> floor_;     ///< draw_floors(): each sample's lowest floor so far
+  // draw_floors_by_bins(): the land samples (pending_ indices), their bins, the bins' first
+  // slots in the packed arrays above (one more at the end) and each land sample's slot.
+  std::vector<std::size_t> land_, bin_of_, bin_start_, bin_next_, slot_;
+  std::vector<double> warp_scratch_;  ///< grid() and the batch at(): the warp's sums
+  std::vector<Vec3d> warped_;         ///< grid() and the batch at(): the directions, warped
   std::vector<Vec3d> detailed_;
   std::vector<double> detail_;
   /// The surface of a land leaf, this generation's (land_ground): its valley floor where it has
