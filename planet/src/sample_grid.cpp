@@ -529,7 +529,9 @@ void Sampler::draw_floors_by_bins(int level) {
   // band's middle sample. Projecting onto it moves no two points farther apart than they are,
   // so a sample within reach of a point of a chord lies within reach of it in both coordinates,
   // and an edge's bins are those its end points' box, widened by the reach, overlaps.
-  const auto [east, north] = tangent_axes(pending_directions_[land_[land_.size() / 2]]);
+  // (Not a structured binding: clang 14, which builds the fuzzers, cannot capture one.)
+  const std::pair<Vec3d, Vec3d> axes = tangent_axes(pending_directions_[land_[land_.size() / 2]]);
+  const Vec3d east = axes.first, north = axes.second;
   double u_lo = std::numeric_limits<double>::infinity(), u_hi = -u_lo, v_lo = u_lo, v_hi = -u_lo;
   for (const std::size_t k : land_) {
     const double u = dot(pending_directions_[k], east), v = dot(pending_directions_[k], north);
