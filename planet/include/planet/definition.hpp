@@ -94,12 +94,12 @@ struct PlanetDefinition {
   /// loses more water than it gains and is kept closed, below its rim, with no outflow.
   double aridity = 0.35;
   /// Domain warping (Schneider et al. 2006, planet.md "Winding valleys"): every point is
-  /// evaluated where a smooth noise field moves it, by up to about this share of the field's
-  /// longest wavelength, so that valleys and ridges along the mesh's straight edges wind; 0 for
-  /// none (the default: it costs Flint's law some squares, planet.md says which).
+  /// evaluated where a smooth noise field moves it, each octave by up to this share of its
+  /// wavelength, so that valleys and ridges along the mesh's straight edges wind; 0 for none
+  /// (the default: it costs Flint's law some squares, planet.md says which).
   double warp = 0.0;
-  /// Metres: the warp's longest wavelength; each next octave is a quarter as long and bends
-  /// half as much, down to four edges of the level sampled.
+  /// Metres: the warp's longest wavelength; each next octave is a quarter as long, down to four
+  /// edges of the level sampled, six at most.
   double warp_wavelength = 40000.0;
   ReliefModel relief_model = ReliefModel::drainage;
   int base_faces = 5000;      ///< base shape accuracy; rounded to 8·2^k faces
