@@ -78,13 +78,11 @@ const detail::WarpOctaves& Planet::warp_octaves(int level) const {
 }
 
 bool Planet::warps(int level) const {
-  assert(level >= 0 && static_cast<std::size_t>(level) < warp_by_level_.size());
-  return warp_by_level_[static_cast<std::size_t>(level)].count > 0;
+  return warp_octaves(level).count > 0;
 }
 
 Vec3d Planet::warp(const Vec3d& direction, int level) const {
-  assert(level >= 0 && static_cast<std::size_t>(level) < warp_by_level_.size());
-  return detail::warped(warp_by_level_[static_cast<std::size_t>(level)], direction);
+  return detail::warped(warp_octaves(level), direction);
 }
 
 std::shared_ptr<const Planet> Planet::create(const PlanetDefinition& definition,
@@ -346,12 +344,15 @@ PointSample Sampler::evaluate(std::int32_t t, const Vec3d& p, int level, double 
 void Sampler::at(std::span<const Vec3d> given, int level, double octaves, const DescentStart& start,
                  std::span<PointSample> out) {
   assert(out.size() >= given.size());
-  // Every direction warped at once (the same bits as one by one).
-  warped_.resize(given.size());
-  warp_scratch_.resize(3 * given.size());
-  detail::warped(planet_->warp_octaves(level), given.data(), given.size(), warped_.data(),
-                 warp_scratch_.data());
-  const std::span<const Vec3d> directions = warped_;
+  // Where the level is warped, every direction at once (the same bits as one by one).
+  std::span<const Vec3d> directions = given;
+  if (planet_->warps(level)) {
+    warped_.resize(given.size());
+    warp_scratch_.resize(3 * given.size());
+    detail::warped(planet_->warp_octaves(level), given.data(), given.size(), warped_.data(),
+                   warp_scratch_.data());
+    directions = warped_;
+  }
   if (!planet_->has_detail_octaves(octaves)) {  // nothing to batch: the noise sums no octave
     for (std::size_t i = 0; i < directions.size(); ++i) {
       trim_when_large();

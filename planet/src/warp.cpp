@@ -37,12 +37,10 @@ WarpOctaves warp_octaves(double share, double longest, double edge, double radiu
 }
 
 Vec3d warped(const WarpOctaves& plan, const Vec3d& p) {
-  if (plan.count == 0) return p;
-  Vec3d w{};
-  for (std::size_t i = 0; i < 3; ++i) {
-    w[i] = 2.0 * detail_sum(plan.component[i], p) - plan.offset;
-  }
-  return normalize(add(p, w));
+  std::array<double, 3> scratch{};
+  Vec3d out{};
+  warped(plan, &p, 1, &out, scratch.data());
+  return out;
 }
 
 void warped(const WarpOctaves& plan, const Vec3d* p, std::size_t n, Vec3d* out, double* scratch) {
