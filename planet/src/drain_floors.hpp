@@ -32,6 +32,9 @@ struct FloorShape {
   double over_fade = 0.0;        ///< 1 / (reach − full)
   /// `reach` in unit-sphere chords.
   double reach_chord() const { return reach / radius; }
+  /// A little beyond the reach in chords, for deciding which edges and samples to look at, so
+  /// that rounding never leaves out one that lowered() would lower.
+  double search_chord() const { return reach_chord() * (1.0 + 1e-6); }
 };
 
 /// A level's shape: a reach of a sample and a half (samples half an edge apart, as tiles of the
@@ -130,7 +133,7 @@ inline bool within_reach(const Vec3d& u, const Vec3d& v, const Vec3d& p, const F
   const double l2 = dot(uv, uv);
   const double f = std::clamp(l2 > 0.0 ? dot(up, uv) / l2 : 0.0, 0.0, 1.0);
   const Vec3d off = sub(up, scale(uv, f));
-  const double limit = shape.reach_chord() * (1.0 + 1e-6);
+  const double limit = shape.search_chord();
   return dot(off, off) <= limit * limit;
 }
 

@@ -162,10 +162,26 @@ struct FloorSamples {
 // ground before every floor), so no remainder loop is needed. A NaN ground (off land) stays
 // NaN: lowered() compares it false and returns it. Cloned for AVX-512 and AVX2 (the same
 // numbers: no contraction, and a select returns one of its operands).
+// `sparse`: a rectangle of rows and columns around an edge holds about twice the samples within
+// its reach, so kLanes samples all farther than the reach from its chord are passed over, which
+// leaves every value as it was (lowered() returns their ground). Bins hug the edge more closely,
+// and there the test costs more than it saves.
+template <bool sparse>
 TERRAIN_SIMD_CLONES void draw_floor(const floors::DrainSegment& segment,
                                     const floors::FloorShape& shape, const FloorSamples& samples,
                                     std::size_t first, std::size_t end) {
+  const double search = shape.search_chord();
   for (std::size_t i = first; i < end; i += kLanes) {
+    if constexpr (sparse) {
+      bool near = false;
+      for (std::size_t j = 0; j < kLanes; ++j) {
+        const Vec3d ap = sub({samples.x[i + j], samples.y[i + j], samples.z[i + j]}, segment.a);
+        const double f = clamp01(dot(ap, segment.ab) * segment.inverse_length2);
+        const Vec3d off = sub(ap, scale(segment.ab, f));
+        near |= dot(off, off) <= search * search;
+      }
+      if (!near) continue;
+    }
     std::array<double, kLanes> ground_after{};
     for (std::size_t j = 0; j < kLanes; ++j) {
       ground_after[j] =
@@ -387,8 +403,7 @@ void Sampler::draw_floors(const SampleGrid& grid, std::size_t base, int level) {
     return;
   }
   const floors::FloorShape shape = floors::floor_shape(planet_->rules(), level);
-  // A little beyond the reach, so that rounding never leaves out an edge a walk would take.
-  const double reach = shape.reach_chord() * (1.0 + 1e-6);
+  const double reach = shape.search_chord();
   // The grounds before and after and the directions, packed in grid order, one array per
   // coordinate, so that drawing a floor along a row vectorises (the samples' records are ten
   // times larger); NaN off land, which no floor lowers; padded for draw_floor.
@@ -430,8 +445,8 @@ void Sampler::draw_floors(const SampleGrid& grid, std::size_t base, int level) {
                         int c_end) {
     for (int r = r_first; r < r_end; ++r) {
       const std::size_t row = static_cast<std::size_t>(r) * samples.cols;
-      draw_floor(segment, shape, samples, row + static_cast<std::size_t>(c_first),
-                 row + static_cast<std::size_t>(c_end));
+      draw_floor<true>(segment, shape, samples, row + static_cast<std::size_t>(c_first),
+                       row + static_cast<std::size_t>(c_end));
     }
   };
   const Geodesy& geodesy = planet_->geodesy();
@@ -521,8 +536,7 @@ void Sampler::draw_floors_by_bins(int level) {
   }
   if (land_.empty()) return;
   const floors::FloorShape shape = floors::floor_shape(planet_->rules(), level);
-  // A little beyond the reach, so that rounding never leaves out an edge a walk would take.
-  const double reach = shape.reach_chord() * (1.0 + 1e-6) + 1e-14;
+  const double reach = shape.search_chord() + 1e-14;
 
   // The samples' directions are warped (Planet::warp), so a band's rows are no longer lines of
   // latitude: the samples are binned instead, by their coordinates in the plane tangent to the
@@ -598,8 +612,8 @@ void Sampler::draw_floors_by_bins(int level) {
     const std::size_t v_last = cell(std::max(va, vb) + reach, v_lo, nv);
     const floors::DrainSegment segment = floors::drain_segment(a, b, shape);
     for (std::size_t row = v_first; row <= v_last; ++row) {
-      draw_floor(segment, shape, samples, bin_start_[row * nu + u_first],
-                 bin_start_[row * nu + u_last + 1]);
+      draw_floor<false>(segment, shape, samples, bin_start_[row * nu + u_first],
+                        bin_start_[row * nu + u_last + 1]);
     }
   });
   for (std::size_t i = 0; i < land_.size(); ++i) {
