@@ -135,6 +135,20 @@ void BM_PlanetTileAtOctahedronVertex(benchmark::State& state) {
 }
 BENCHMARK(BM_PlanetTileAtOctahedronVertex)->DenseRange(0, 5)->Unit(benchmark::kMillisecond);
 
+// A fresh tile of the open sea beside the cone point at 0° N 180°, where every level's triangles
+// are twenty times smaller than elsewhere (planet.md "The cone points"): 0.2 s at zooms 10–14
+// until the open sea's floor stopped at edges of about 2 km (generation 22).
+void BM_PlanetTileBesideAConePoint(benchmark::State& state) {
+  const int z = static_cast<int>(state.range(0));
+  const std::int64_t n = std::int64_t{1} << z;  // geographic: 2n columns, n rows
+  const terrain::TileAddress a{z, 2 * n - 1, n / 2};
+  for (auto _ : state) {
+    PlanetTiles tiles(default_planet());
+    if (!consume(state, tiles.make(a, terrain::TileFormat::terrain_rgb))) return;
+  }
+}
+BENCHMARK(BM_PlanetTileBesideAConePoint)->Arg(8)->Arg(12)->Arg(16)->Unit(benchmark::kMillisecond);
+
 // The same tile from a PlanetTiles that has made it once, every triangle it needs already split:
 // what a server thread's cached refinement saves (the product cache aside), and what a tile costs
 // beyond its splits (descent, cubic, detail noise, encoding).

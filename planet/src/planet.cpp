@@ -272,10 +272,7 @@ std::int32_t Sampler::descend(const Vec3d& p, int level, const DescentStart& sta
     // triangle of it that holds p by the margin is the leaf p's descent ends in.
     DescentStart at = leaf_;
     for (int step = 0; step <= kWalkSteps; ++step) {
-      if (at.holds(p)) {
-        leaf_ = at;
-        return at.tri;
-      }
+      if (at.holds(p)) return settle(at, p, level);
       if (step == kWalkSteps) break;
       std::size_t beyond = 0;
       for (std::size_t k = 1; k < 3; ++k) {
@@ -303,14 +300,32 @@ std::int32_t Sampler::descend(const Vec3d& p, int level, const DescentStart& sta
     const bool usable = start.generation == generation_ && start.level <= level && start.holds(p);
     path_.push_back(usable ? start : start_at(hierarchy_.root_face(p)));
   }
+  return descend_path(p, level);
+}
+
+std::int32_t Sampler::descend_path(const Vec3d& p, int level) {
   std::int32_t t = path_.back().tri;
-  while (hierarchy_.tris[static_cast<std::size_t>(t)].level < level) {
+  while (hierarchy_.tris[static_cast<std::size_t>(t)].level < level && !hierarchy_.open_sea(t)) {
     hierarchy_.ensure_split(t);
     t = hierarchy_.locate_child(t, p);
     path_.push_back(start_at(t));
   }
   leaf_ = path_.back();
   return t;
+}
+
+std::int32_t Sampler::settle(const DescentStart& at, const Vec3d& p, int level) {
+  // Open sea stops a descent at its first open-sea triangle, so the walk's triangle is the leaf
+  // only where it is that one, or where it is of the level asked for and not open sea. Each
+  // level is a triangulation, so p's descent passes through it either way.
+  const std::int32_t stop = hierarchy_.open_sea_stop(at.tri);
+  const int at_level = hierarchy_.tris[static_cast<std::size_t>(at.tri)].level;
+  if (stop == at.tri || (stop < 0 && at_level >= level)) {
+    leaf_ = at;
+    return at.tri;
+  }
+  path_.assign(1, stop >= 0 ? start_at(stop) : at);
+  return descend_path(p, level);
 }
 
 DescentStart Sampler::descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level) {
@@ -321,7 +336,8 @@ DescentStart Sampler::descent_start(const Vec3d& centre, std::span<const Vec3d> 
 DescentStart Sampler::find_descent_start(const Vec3d& centre, std::span<const Vec3d> points,
                                          int level) {
   std::vector<std::int32_t> path{hierarchy_.root_face(centre)};
-  while (hierarchy_.tris[static_cast<std::size_t>(path.back())].level < level) {
+  while (hierarchy_.tris[static_cast<std::size_t>(path.back())].level < level &&
+         !hierarchy_.open_sea(path.back())) {
     hierarchy_.ensure_split(path.back());
     path.push_back(hierarchy_.locate_child(path.back(), centre));
   }

@@ -11,6 +11,15 @@
 #include "planet/smooth_surface.hpp"
 
 namespace planet {
+namespace {
+
+// The open sea's floor is refined to edges about this long (Rules::sea_finest_level). Finer, its
+// roughness was detail nobody sees under the water, and around the octahedron's cone points,
+// where the triangles of every level are twenty times smaller than elsewhere, a zoom-12 tile of
+// open sea split 1.5 million of them (0.2 s; planet.md "The cone points").
+constexpr double kSeaFinestEdge = 2000.0;
+
+}  // namespace
 
 Vec3d normalize(const Vec3d& a) {
   const double n = std::sqrt(dot(a, a));
@@ -33,6 +42,10 @@ Rules::Rules(const PlanetDefinition& definition) : def(definition) {
   mesh_level = base_level + 2;
   max_level = mesh_level;
   while (max_level < 60 && edge_length(max_level) > def.finest_edge) ++max_level;
+  sea_finest_level = mesh_level;
+  while (sea_finest_level < max_level && edge_length(sea_finest_level + 1) >= kSeaFinestEdge) {
+    ++sea_finest_level;
+  }
 }
 
 double Rules::edge_length(int level) const {
@@ -337,6 +350,14 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
         coast = std::min(coast, from + length[i]);
       }
       m.drainage_area = static_cast<float>(coast);
+      if (level >= rules.sea_finest_level) {
+        // Below the open sea's finest level the floor is its surface there: a sea split only
+        // adds the mean of its edge's ends, so the open sea's triangles of that level are the
+        // sea floor whatever their refinement, and a triangle beside one that is refined
+        // further meets it along their edge (to the micrometre of the gnomonic projections).
+        m.ground = 0.5 * (a.ground + b.ground);
+        return r;
+      }
       if (def.shelf_width > 0.0 && coast < def.shelf_width) {
         const double shelf = def.shelf_depth * (0.5 + 0.5 * coast / def.shelf_width);
         m.ground = std::max(m.ground, def.sea_level - shelf);
@@ -758,9 +779,26 @@ std::int32_t Hierarchy::locate_child(std::int32_t t, const Vec3d& p) const {
   return T.child[0];  // only p = ±m (or NaN) gets here
 }
 
+bool Hierarchy::open_sea(std::int32_t t) const {
+  const Tri& tri = tris[static_cast<std::size_t>(t)];
+  if (tri.face != FaceType::sea || tri.level < rules_->sea_finest_level) return false;
+  constexpr std::uint8_t kNotOpen = kCoast | kLand | kRiver | kLake;
+  return std::none_of(tri.v.begin(), tri.v.end(),
+                      [&](std::uint32_t v) { return (vertices[v].flags & kNotOpen) != 0; });
+}
+
+std::int32_t Hierarchy::open_sea_stop(std::int32_t t) const {
+  if (!open_sea(t)) return -1;
+  for (std::int32_t up = tris[static_cast<std::size_t>(t)].parent; up >= 0 && open_sea(up);
+       up = tris[static_cast<std::size_t>(up)].parent) {
+    t = up;
+  }
+  return t;
+}
+
 std::int32_t Hierarchy::locate(const Vec3d& p, int level) {
   std::int32_t t = root_face(p);
-  while (tris[static_cast<std::size_t>(t)].level < level) {
+  while (tris[static_cast<std::size_t>(t)].level < level && !open_sea(t)) {
     ensure_split(t);
     t = locate_child(t, p);
   }

@@ -354,7 +354,11 @@ void Sampler::grid_rows(const SampleGrid& grid, std::size_t base, int level, dou
           const int c = eastward ? c0 + step : c1 - step;
           const Vec3d p = direction(r, c);
           const std::int32_t leaf = descend(p, level, start);
-          if (floors) leaves_.push_back(leaf);
+          // Floors are drawn from the leaves of the level (an open-sea leaf is coarser, and the
+          // land beside it takes no floors from its level).
+          if (floors && hierarchy_.tris[static_cast<std::size_t>(leaf)].level == level) {
+            leaves_.push_back(leaf);
+          }
           order_.push_back(base +
                            static_cast<std::size_t>(r) * static_cast<std::size_t>(grid.cols) +
                            static_cast<std::size_t>(c));

@@ -24,11 +24,13 @@ TEST(ProductGoldens, TheDefaultPlanetMakesTheBytesOfItsGeneration) {
   // A continent from afar, a coast at zoom 6, land at zoom 9 and at zoom 16 near 5° N 175° W,
   // where the detail noise's octaves are drawn (the geographic grid), an open lake at zoom 6
   // (near 6.5° N 105° W since generation 17; 9 % of the tile's samples), and the Web Mercator
-  // tiles MapLibre asks for.
+  // tiles MapLibre asks for; since generation 22 also the open sea beside the cone point at
+  // 0° N 180° at zoom 10, whose floor is refined to edges of about 2 km and no finer.
   const std::pair<TileScheme, TileAddress> places[] = {
-      {TileScheme::geographic, {3, 9, 5}},     {TileScheme::geographic, {6, 70, 40}},
-      {TileScheme::geographic, {9, 600, 300}}, {TileScheme::geographic, {16, 1820, 34588}},
-      {TileScheme::geographic, {6, 26, 34}},   {TileScheme::webmercator, {5, 17, 11}},
+      {TileScheme::geographic, {3, 9, 5}},       {TileScheme::geographic, {6, 70, 40}},
+      {TileScheme::geographic, {9, 600, 300}},   {TileScheme::geographic, {16, 1820, 34588}},
+      {TileScheme::geographic, {6, 26, 34}},     {TileScheme::webmercator, {5, 17, 11}},
+      {TileScheme::geographic, {10, 2047, 512}},
   };
   terrain::testing::ProductHashes made;
   const terrain::testing::InputHashes inputs{{"default", planet->id()}};

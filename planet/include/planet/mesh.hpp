@@ -127,6 +127,12 @@ struct Rules {
   int base_level = 0;   ///< B: the level continents and rivers are built on
   int mesh_level = 0;   ///< B + 2: the stored base mesh (every level-B edge split once)
   int max_level = 0;    ///< refinement stops here (edges about finest_edge long)
+  /// The open sea's finest level (edges about kSeaFinestEdge long, at least the stored mesh's):
+  /// sea splits of its triangles and finer ones take the mean of their edge's ends, and a sample
+  /// in open sea takes the surface of the first open-sea triangle of its descent at this level
+  /// or finer (Hierarchy::open_sea), however fine a level it asks for (planet.md "The cone
+  /// points").
+  int sea_finest_level = 0;
   double roughness_scale = 0.0;
 
   explicit Rules(const PlanetDefinition& definition);
@@ -215,6 +221,14 @@ class Hierarchy {
   std::int32_t locate(const Vec3d& p, int level);
   /// Of the four children of t's split diamond, the one holding p.
   std::int32_t locate_child(std::int32_t t, const Vec3d& p) const;
+  /// Whether a descent stops at t whatever level it asks for: t is a sea triangle of the open
+  /// sea's finest level or finer (Rules::sea_finest_level) with no corner on a coast. Its
+  /// refinement would only add means of its corners, so its own surface is the sea floor there;
+  /// every triangle inside it is open sea too.
+  bool open_sea(std::int32_t t) const;
+  /// The first open-sea triangle on the descent through t (t itself, or its shallowest open-sea
+  /// ancestor), or −1 where t is not open sea.
+  std::int32_t open_sea_stop(std::int32_t t) const;
 
   const Rules* rules() const { return rules_; }
 

@@ -250,10 +250,16 @@ class Sampler {
   DescentStart find_descent_start(const Vec3d& centre, std::span<const Vec3d> points, int level);
   /// Triangle t with its edges' planes.
   DescentStart start_at(std::int32_t t) const;
-  /// The triangle at `level` holding p: the leaf locate(p, level) finds, bit for bit, descending
-  /// from the deepest triangle of the last descent that holds p, else from `start` when usable,
-  /// else from the octahedron.
+  /// The leaf holding p: the triangle locate(p, level) finds, bit for bit (at `level`, or the
+  /// first open-sea triangle on the way: Hierarchy::open_sea), descending from the deepest
+  /// triangle of the last descent that holds p, else from `start` when usable, else from the
+  /// octahedron.
   std::int32_t descend(const Vec3d& p, int level, const DescentStart& start);
+  /// Descends path_ from its last triangle, which holds p, to p's leaf.
+  std::int32_t descend_path(const Vec3d& p, int level);
+  /// p's leaf, given a triangle of a level's triangulation that holds p by the margin (the walk
+  /// found it): it, its first open-sea ancestor, or the leaf below it.
+  std::int32_t settle(const DescentStart& at, const Vec3d& p, int level);
 
   std::shared_ptr<const Planet> planet_;
   Hierarchy hierarchy_;
@@ -262,8 +268,8 @@ class Sampler {
   /// The last descent's triangles, its start first, each holding the last point (see
   /// DescentStart: any of them that holds the next point by the margin lies on its way down).
   std::vector<DescentStart> path_;
-  int path_level_ = -1;  ///< the level that descent went to
-  DescentStart leaf_;    ///< the last point's leaf, at path_level_
+  int path_level_ = -1;  ///< the level that descent asked for
+  DescentStart leaf_;    ///< the last point's leaf (at path_level_, or an open-sea triangle)
   // Scratch of the batch at() and grid(): kept between calls so that a tile allocates nothing.
   std::vector<Undetailed> pending_;
   std::vector<std::size_t> order_;         ///< grid(): the grid index of each pending_ sample

@@ -55,8 +55,10 @@ namespace terrain {
 /// drainage model floors valley edges as it floors drains (fewer pits), and turns a drain that
 /// would run on along the edge being split across it (no stars of valleys at coarse vertices).
 /// 21: the drainage model spreads the rises of links at its steepest slope by up to 30 % either
-/// way (no planar facets on steep land at zoom 14).
-inline constexpr int kProductGeneration = 21;
+/// way (no planar facets on steep land at zoom 14). 22: the open sea's floor is refined to
+/// edges of about 2 km and no finer (a tile of open sea beside a cone point split 1.5 million
+/// triangles).
+inline constexpr int kProductGeneration = 22;
 
 enum class TileFormat {
   terrain_rgb,     ///< PNG, Mapbox terrain-RGB
