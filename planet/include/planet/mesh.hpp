@@ -217,7 +217,8 @@ class Hierarchy {
 
   /// The octahedron face holding direction p (ties resolved by the signs' convention).
   std::int32_t root_face(const Vec3d& p) const;
-  /// The triangle at `level` holding p, splitting what is needed on the way.
+  /// The leaf holding p: the triangle at `level`, or the first open-sea triangle on the way
+  /// (open_sea), splitting what is needed on the way.
   std::int32_t locate(const Vec3d& p, int level);
   /// Of the four children of t's split diamond, the one holding p.
   std::int32_t locate_child(std::int32_t t, const Vec3d& p) const;
