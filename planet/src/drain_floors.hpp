@@ -87,11 +87,22 @@ inline DrainSegment drain_segment(const Vertex& u, const Vertex& v, const FloorS
 /// where the floor stands higher). Every quantity is computed and the result selected, without
 /// branches, so that a grid's rows of points vectorise (Sampler::draw_floors): the value is the
 /// same either way, and a branch per point mispredicted often enough to double its cost.
-inline double lowered(double ground, const DrainSegment& e, const Vec3d& p,
-                      const FloorShape& shape) {
+/// Where p lies beside drain `e`: the share `f` of the way from its end a to its end b of p's
+/// foot on the chord, and p's offset `off` from that foot (unit-sphere chords).
+struct Foot {
+  double f = 0.0;
+  Vec3d off{};
+};
+
+inline Foot foot_on(const DrainSegment& e, const Vec3d& p) {
   const Vec3d ap = sub(p, e.a);
   const double f = clamp01(dot(ap, e.ab) * e.inverse_length2);
-  const Vec3d off = sub(ap, scale(e.ab, f));
+  return {f, sub(ap, scale(e.ab, f))};
+}
+
+inline double lowered(double ground, const DrainSegment& e, const Vec3d& p,
+                      const FloorShape& shape) {
+  const auto [f, off] = foot_on(e, p);
   const double d = std::sqrt(dot(off, off)) * shape.radius;
   // The floor stands on its axis and climbs away from it, fading out towards the reach.
   const double floor = e.ground + f * e.drop + e.cross * (d * d * shape.half_over_reach);

@@ -336,7 +336,6 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
       m.p = mid;  // §5.3: sea vertices sit at the centre of the edge
       m.flags = kSea;
       m.water = def.sea_level;
-      m.ground = 0.5 * (a.ground + b.ground) + 0.3 * rules.roughness(l_ab) * (2.0 * g1 - 1.0);
       // Continental shelves: sea vertices carry their distance to the coast (Vertex::
       // drainage_area), through the nearest corner. Within shelf_width the floor is no deeper
       // than the shelf (half of shelf_depth at the coast, all of it at its edge); beyond, the
@@ -358,6 +357,7 @@ SplitResult split_ordered(const Rules& rules, int level, const Vertex& a, const 
         m.ground = 0.5 * (a.ground + b.ground);
         return r;
       }
+      m.ground = 0.5 * (a.ground + b.ground) + 0.3 * rules.roughness(l_ab) * (2.0 * g1 - 1.0);
       if (def.shelf_width > 0.0 && coast < def.shelf_width) {
         const double shelf = def.shelf_depth * (0.5 + 0.5 * coast / def.shelf_width);
         m.ground = std::max(m.ground, def.sea_level - shelf);

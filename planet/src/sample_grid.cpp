@@ -170,15 +170,14 @@ template <bool sparse>
 TERRAIN_SIMD_CLONES void draw_floor(const floors::DrainSegment& segment,
                                     const floors::FloorShape& shape, const FloorSamples& samples,
                                     std::size_t first, std::size_t end) {
-  const double search = shape.search_chord();
+  const double search2 = shape.search_chord() * shape.search_chord();
   for (std::size_t i = first; i < end; i += kLanes) {
     if constexpr (sparse) {
       bool near = false;
       for (std::size_t j = 0; j < kLanes; ++j) {
-        const Vec3d ap = sub({samples.x[i + j], samples.y[i + j], samples.z[i + j]}, segment.a);
-        const double f = clamp01(dot(ap, segment.ab) * segment.inverse_length2);
-        const Vec3d off = sub(ap, scale(segment.ab, f));
-        near |= dot(off, off) <= search * search;
+        const Vec3d off =
+            floors::foot_on(segment, {samples.x[i + j], samples.y[i + j], samples.z[i + j]}).off;
+        near |= dot(off, off) <= search2;
       }
       if (!near) continue;
     }
